@@ -1,6 +1,111 @@
-// The `lander` command line (placeholder entry point; subcommands land with sim/).
+// The `lander` command line: dispatches to the subcommands registered in cmd_*.cpp.
+#include <algorithm>
 #include <iostream>
-int main(int argc, char** argv) {
-  std::cerr << "lander: no subcommands yet\n";
-  return 2;
+
+#include "command.h"
+#include "lander/estimator/params_io.h"
+
+namespace lander::cli {
+
+std::vector<CommandInfo>& registry() {
+  static std::vector<CommandInfo> r;
+  return r;
 }
+
+ArgParser::ArgParser(const Args& args, std::vector<std::string> value_options,
+                     std::vector<std::string> flag_options) {
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (a.rfind("--", 0) == 0) {
+      const std::string name = a.substr(2);
+      if (std::find(flag_options.begin(), flag_options.end(), name) != flag_options.end()) {
+        flags_.push_back(name);
+      } else if (std::find(value_options.begin(), value_options.end(), name) !=
+                 value_options.end()) {
+        if (i + 1 >= args.size()) throw UsageError("option " + a + " needs a value");
+        values_.emplace_back(name, args[++i]);
+      } else {
+        throw UsageError("unknown option " + a);
+      }
+    } else {
+      positional_.push_back(a);
+    }
+  }
+}
+
+bool ArgParser::flag(const std::string& name) const {
+  return std::find(flags_.begin(), flags_.end(), name) != flags_.end();
+}
+
+bool ArgParser::has(const std::string& name) const {
+  for (const auto& kv : values_) {
+    if (kv.first == name) return true;
+  }
+  return false;
+}
+
+std::string ArgParser::value(const std::string& name, const std::string& fallback) const {
+  for (const auto& kv : values_) {
+    if (kv.first == name) return kv.second;
+  }
+  return fallback;
+}
+
+namespace {
+void print_help(std::ostream& out) {
+  out << "usage: lander COMMAND [ARGS]\n\ncommands:\n";
+  for (const auto& c : registry()) {
+    if (c.kind == Kind::Command) out << "  " << c.name << "\n      " << c.summary << "\n";
+  }
+  out << "  bench NAME --json FILE\n      benchmarks:";
+  for (const auto& c : registry()) {
+    if (c.kind == Kind::Bench) out << " " << c.name;
+  }
+  out << "\n";
+}
+}  // namespace
+
+int main_impl(int argc, char** argv) {
+  if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h") {
+    print_help(argc < 2 ? std::cerr : std::cout);
+    return argc < 2 ? kExitBadInput : kExitOk;
+  }
+  std::string name = argv[1];
+  Kind kind = Kind::Command;
+  int first = 2;
+  if (name == "bench") {
+    if (argc < 3) {
+      print_help(std::cerr);
+      return kExitBadInput;
+    }
+    name = argv[2];
+    kind = Kind::Bench;
+    first = 3;
+  }
+  for (const auto& c : registry()) {
+    if (c.name == name && c.kind == kind) {
+      const Args args(argv + first, argv + argc);
+      try {
+        return c.run(args);
+      } catch (const UsageError& e) {
+        std::cerr << "lander " << (kind == Kind::Bench ? "bench " : "") << name << ": " << e.what()
+                  << "\n";
+        return kExitBadInput;
+      } catch (const ConfigError& e) {
+        std::cerr << "lander: " << e.what() << "\n";
+        return kExitBadInput;
+      } catch (const std::exception& e) {
+        std::cerr << "lander: error: " << e.what() << "\n";
+        return kExitFailure;
+      }
+    }
+  }
+  std::cerr << "lander: unknown " << (kind == Kind::Bench ? "benchmark" : "command") << " '"
+            << name << "'\n";
+  print_help(std::cerr);
+  return kExitBadInput;
+}
+
+}  // namespace lander::cli
+
+int main(int argc, char** argv) { return lander::cli::main_impl(argc, argv); }
