@@ -1,0 +1,92 @@
+// Parameters of the ring-target pose estimator (seed 000 section 2). SI units unless the key
+// says otherwise; pixels are image pixels of the full-resolution frame.
+#pragma once
+
+#include <string>
+
+#include "lander/estimator/params_io.h"
+
+namespace lander {
+
+struct VisionParams {
+  // ---- pre-processing (seed 000 section 2.1) ----
+  double gaussian_sigma_px{0.8};     ///< Gaussian pre-filter sigma (px), 0 = none
+  bool adaptive_threshold{false};    ///< local (adaptive mean) threshold instead of global Otsu
+  int adaptive_block_px{51};         ///< adaptive threshold window side (px), odd, >= 3
+  double adaptive_offset{5.0};       ///< adaptive threshold offset below the local mean (grey)
+  bool canny_edges{false};           ///< Canny + close on the binary image before contours
+                                     ///< (the paper's chain; border following of the binary
+                                     ///< image gives the same boundaries faster)
+  int close_kernel_px{3};            ///< morphological close kernel side (px), 1 = none
+  int min_contour_points{14};        ///< contours shorter than this are ignored (px)
+  double min_axis_px{1.5};           ///< smallest accepted ellipse semi-axis (px)
+  double min_axis_ratio{0.15};       ///< minor/major semi-axis ratio floor (about 81 deg tilt)
+  double max_contour_fit_rms_px{0.6};  ///< pixel-contour ellipse fit RMS gate (px)
+
+  // ---- sub-pixel edge refinement ----
+  int edge_samples{48};              ///< edge points sampled around each ellipse
+  double edge_search_px{3.0};        ///< half length of the normal profile searched (px)
+  int refine_iterations{2};          ///< resample-and-refit passes
+  double max_edge_fit_rms_px{0.5};   ///< sub-pixel edge fit RMS gate (px)
+
+  // ---- concentric pairing and identity (eq. 1-9) ----
+  double max_centre_offset_ratio{0.35};  ///< |c_outer - c_inner| / inner minor axis, ceiling
+  double harmonic_tol_px{1e-9};      ///< harmonic-ratio recursion stops below this step (px)
+  int harmonic_max_iter{200};        ///< harmonic-ratio recursion iteration cap
+  double ratio_tol{0.03};            ///< |r/R measured - r/R model| for a ring identity; the
+                                     ///< closest model ratios (0.66, 0.58) are 0.08 apart
+
+  // ---- pose (eq. 10-16) ----
+  int min_rings{4};                  ///< identified centres needed for a pose (planar PnP)
+  double max_centre_reproj_px{3.0};  ///< centre outlier gate after the initial PnP (px)
+  int refine_max_iter{30};           ///< Levenberg-Marquardt iteration cap
+  int refine_points_per_ellipse{24};  ///< edge points per ellipse in the conic cost
+  double max_reproj_err_px{2.0};     ///< eq. 30 RMS above this rejects the frame (px)
+  double max_edge_residual_px{1.5};  ///< conic-cost RMS above this rejects the frame (px)
+
+  // ---- keyframes (eq. 17-18) ----
+  double rho_max{0.01};              ///< reliability threshold on rho (dimensionless)
+  int keyframe_reset_after{5};       ///< after this many consecutive rejections, restart
+
+  // ---- tracking ----
+  bool tracking{true};               ///< search a predicted region first
+  double roi_margin{0.35};           ///< ROI grows by this fraction of its size on each side
+  int max_frames_without_detection{3};  ///< drop the prediction after this many misses
+
+  void validate() const;
+};
+
+template <class V>
+void visit_fields(V& v, VisionParams& p) {
+  v("gaussian_sigma_px", p.gaussian_sigma_px);
+  v("adaptive_threshold", p.adaptive_threshold);
+  v("adaptive_block_px", p.adaptive_block_px);
+  v("adaptive_offset", p.adaptive_offset);
+  v("canny_edges", p.canny_edges);
+  v("close_kernel_px", p.close_kernel_px);
+  v("min_contour_points", p.min_contour_points);
+  v("min_axis_px", p.min_axis_px);
+  v("min_axis_ratio", p.min_axis_ratio);
+  v("max_contour_fit_rms_px", p.max_contour_fit_rms_px);
+  v("edge_samples", p.edge_samples);
+  v("edge_search_px", p.edge_search_px);
+  v("refine_iterations", p.refine_iterations);
+  v("max_edge_fit_rms_px", p.max_edge_fit_rms_px);
+  v("max_centre_offset_ratio", p.max_centre_offset_ratio);
+  v("harmonic_tol_px", p.harmonic_tol_px);
+  v("harmonic_max_iter", p.harmonic_max_iter);
+  v("ratio_tol", p.ratio_tol);
+  v("min_rings", p.min_rings);
+  v("max_centre_reproj_px", p.max_centre_reproj_px);
+  v("refine_max_iter", p.refine_max_iter);
+  v("refine_points_per_ellipse", p.refine_points_per_ellipse);
+  v("max_reproj_err_px", p.max_reproj_err_px);
+  v("max_edge_residual_px", p.max_edge_residual_px);
+  v("rho_max", p.rho_max);
+  v("keyframe_reset_after", p.keyframe_reset_after);
+  v("tracking", p.tracking);
+  v("roi_margin", p.roi_margin);
+  v("max_frames_without_detection", p.max_frames_without_detection);
+}
+
+}  // namespace lander

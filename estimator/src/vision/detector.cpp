@@ -1,0 +1,593 @@
+// Stages 3-6 of the ring detector (seed 000 section 2.2-2.4), tracking and output.
+#include "lander/estimator/vision_detector.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "vision/internal.h"
+
+namespace lander {
+
+using vision_internal::EllipseCandidate;
+
+const char* to_string(VisionStatus s) {
+  switch (s) {
+    case VisionStatus::Detected: return "detected";
+    case VisionStatus::EmptyImage: return "empty_image";
+    case VisionStatus::UnsupportedImage: return "unsupported_image";
+    case VisionStatus::ImageSizeMismatch: return "image_size_mismatch";
+    case VisionStatus::NoEllipses: return "no_ellipses";
+    case VisionStatus::NoConcentricPairs: return "no_concentric_pairs";
+    case VisionStatus::NoRingIdentified: return "no_ring_identified";
+    case VisionStatus::TooFewRings: return "too_few_rings";
+    case VisionStatus::PoseFailed: return "pose_failed";
+    case VisionStatus::ReprojectionTooLarge: return "reprojection_too_large";
+  }
+  return "unknown";
+}
+
+const char* to_string(KeyframeStatus s) {
+  switch (s) {
+    case KeyframeStatus::NotDetected: return "not_detected";
+    case KeyframeStatus::First: return "first";
+    case KeyframeStatus::Accepted: return "accepted";
+    case KeyframeStatus::Rejected: return "rejected";
+    case KeyframeStatus::Restarted: return "restarted";
+  }
+  return "unknown";
+}
+
+// Eq. (17)-(18): unit pose vectors I = P / |P| with P = [alpha, beta, gamma, dx, dy, dz],
+// the rotation vector (Rodrigues) and the translation; rho = 1 - |I_old . I_new|.
+double keyframe_rho(const Eigen::Isometry3d& X_old, const Eigen::Isometry3d& X_new) {
+  auto unit = [](const Eigen::Isometry3d& X) {
+    const Eigen::AngleAxisd aa(X.linear());
+    Eigen::Matrix<double, 6, 1> P;
+    P << aa.angle() * aa.axis(), X.translation();
+    const double n = P.norm();
+    return n > 0 ? Eigen::Matrix<double, 6, 1>(P / n) : P;
+  };
+  return 1.0 - std::abs(unit(X_old).dot(unit(X_new)));
+}
+
+namespace {
+
+struct PairCandidate {
+  int outer{-1}, inner{-1};
+  Eigen::Vector2d centre;
+  double ratio{0.0};
+  int iterations{0};
+  int ring_id{-1};
+  double err{1e9};
+};
+
+bool to_grey(const cv::Mat& img, cv::Mat& grey) {
+  cv::Mat g;
+  switch (img.channels()) {
+    case 1: g = img; break;
+    case 3: cv::cvtColor(img, g, cv::COLOR_BGR2GRAY); break;
+    case 4: cv::cvtColor(img, g, cv::COLOR_BGRA2GRAY); break;
+    default: return false;
+  }
+  if (g.depth() == CV_8U) {
+    grey = g;
+  } else if (g.depth() == CV_16U) {
+    g.convertTo(grey, CV_8U, 1.0 / 256.0);
+  } else {
+    return false;
+  }
+  return true;
+}
+
+Eigen::Vector2d project(const Eigen::Matrix3d& K, const Eigen::Isometry3d& X_CP,
+                        const Eigen::Vector2d& c_P) {
+  const Eigen::Vector3d p = K * (X_CP * Eigen::Vector3d(c_P.x(), c_P.y(), 0.0));
+  return p.head<2>() / p.z();
+}
+
+// Raw-image pixel of an undistorted pixel (applies the Brown-Conrady model).
+Eigen::Vector2d distort(const CameraModel& cam, const Eigen::Vector2d& u) {
+  if (!cam.has_distortion()) return u;
+  const double x = (u.x() - cam.cx_px) / cam.fx_px, y = (u.y() - cam.cy_px) / cam.fy_px;
+  const double r2 = x * x + y * y;
+  const double radial = 1 + cam.k1 * r2 + cam.k2 * r2 * r2 + cam.k3 * r2 * r2 * r2;
+  const double xd = x * radial + 2 * cam.p1 * x * y + cam.p2 * (r2 + 2 * x * x);
+  const double yd = y * radial + cam.p1 * (r2 + 2 * y * y) + 2 * cam.p2 * x * y;
+  return {cam.fx_px * xd + cam.cx_px, cam.fy_px * yd + cam.cy_px};
+}
+
+// Everything from contours to the refined pose on one search region. Fills `d` except the
+// keyframe fields and the timing; returns d.detected.
+bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam,
+                const TargetGeometry& target, const VisionParams& p, RingDetection& d) {
+  d = RingDetection{};
+  d.roi = roi;
+  auto fail = [&](VisionStatus s, std::string why) {
+    d.detected = false;
+    d.status = s;
+    d.reason = std::move(why);
+    return false;
+  };
+  const std::vector<EllipseCandidate> cands = vision_internal::find_ellipses(grey, roi, cam, p);
+  for (const auto& c : cands) {
+    DetectedEllipse e;
+    e.C = c.C;
+    e.image = c.image;
+    e.fit_rms_px = c.fit_rms_px;
+    d.ellipses.push_back(e);
+  }
+  if (cands.empty()) return fail(VisionStatus::NoEllipses, "no contour passed the ellipse tests");
+
+  // Concentric pairs (eq. 1), their centres (eq. 2-8) and radius ratios (eq. 9).
+  std::vector<PairCandidate> pairs;
+  for (int i = 0; i < static_cast<int>(cands.size()); ++i) {
+    const EllipseParams& O = cands[i].undist;
+    for (int j = 0; j < static_cast<int>(cands.size()); ++j) {
+      const EllipseParams& I = cands[j].undist;
+      if (i == j || !(I.a < O.a && I.b < O.b)) continue;
+      if ((O.centre - I.centre).norm() > p.max_centre_offset_ratio * I.b) continue;
+      if (!concentric_test(cands[i].C, cands[j].C)) continue;  // eq. (1)
+      const auto hc = harmonic_centre(cands[i].C, cands[j].C, p.harmonic_tol_px,
+                                      p.harmonic_max_iter);  // eq. (2)-(8)
+      if (!hc) continue;
+      // Eq. (9) along the outer ellipse's two axis directions through the centre.
+      double rsum = 0.0;
+      int rn = 0;
+      for (double ang : {O.angle_rad, O.angle_rad + 0.5 * M_PI}) {
+        const auto k = cross_ratio_through(cands[i].C, cands[j].C, hc->centre,
+                                           Eigen::Vector2d(std::cos(ang), std::sin(ang)));
+        if (k) {
+          rsum += radius_ratio_from_cross_ratio(*k);
+          ++rn;
+        }
+      }
+      if (rn == 0) continue;
+      PairCandidate pc;
+      pc.outer = i;
+      pc.inner = j;
+      pc.centre = hc->centre;
+      pc.iterations = hc->iterations;
+      pc.ratio = rsum / rn;
+      for (const auto& ring : target.rings) {
+        const double err = std::abs(pc.ratio - ring.radius_ratio());
+        if (err < pc.err) {
+          pc.err = err;
+          pc.ring_id = ring.id;
+        }
+      }
+      pairs.push_back(pc);
+    }
+  }
+  if (pairs.empty()) {
+    return fail(VisionStatus::NoConcentricPairs,
+                std::to_string(cands.size()) + " ellipses, no concentric pair (eq. 1)");
+  }
+  // Greedy one-to-one assignment by identity error; curves matching no ring set are dropped.
+  std::vector<int> order(pairs.size());
+  for (std::size_t i = 0; i < pairs.size(); ++i) order[i] = static_cast<int>(i);
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return pairs[a].err < pairs[b].err; });
+  std::vector<bool> used_ellipse(cands.size(), false);
+  std::vector<int> chosen;
+  auto id_used = [&](int id) {
+    for (int c : chosen) {
+      if (pairs[c].ring_id == id) return true;
+    }
+    return false;
+  };
+  for (int k : order) {
+    const auto& pc = pairs[k];
+    if (pc.err > p.ratio_tol || id_used(pc.ring_id) || used_ellipse[pc.outer] ||
+        used_ellipse[pc.inner]) {
+      continue;
+    }
+    used_ellipse[pc.outer] = used_ellipse[pc.inner] = true;
+    chosen.push_back(k);
+  }
+  auto fill_centres = [&]() {
+    d.centres.clear();
+    for (auto& e : d.ellipses) e.ring_id = -1;
+    for (int k : chosen) {
+      const auto& pc = pairs[k];
+      IdentifiedCentre c;
+      c.ring_id = pc.ring_id;
+      c.centre_px = pc.centre;
+      c.centre_image_px = distort(cam, pc.centre);
+      c.radius_ratio = pc.ratio;
+      c.outer_index = pc.outer;
+      c.inner_index = pc.inner;
+      c.harmonic_iterations = pc.iterations;
+      d.centres.push_back(c);
+      d.ellipses[pc.outer].ring_id = d.ellipses[pc.inner].ring_id = pc.ring_id;
+      d.ellipses[pc.outer].outer = true;
+    }
+  };
+  fill_centres();
+  if (chosen.empty()) {
+    return fail(VisionStatus::NoRingIdentified,
+                std::to_string(pairs.size()) + " concentric pairs, no cross-ratio (eq. 9) matched");
+  }
+  if (static_cast<int>(chosen.size()) < p.min_rings) {
+    return fail(VisionStatus::TooFewRings, std::to_string(chosen.size()) +
+                                               " ring sets identified, need " +
+                                               std::to_string(p.min_rings));
+  }
+
+  // Initial pose: IPPE (Collins and Bartoli 2014) - made for planar targets, closed form,
+  // returns both solutions of the planar ambiguity so we can keep the consistent one, and
+  // is exact with four points; SQPnP is general-purpose (3D) and slower for our 4-7 points.
+  const Eigen::Matrix3d K = cam.K();
+  const cv::Mat Kcv = (cv::Mat_<double>(3, 3) << K(0, 0), 0, K(0, 2), 0, K(1, 1), K(1, 2), 0, 0, 1);
+  Eigen::Isometry3d X0 = Eigen::Isometry3d::Identity();
+  for (;;) {
+    std::vector<cv::Point3d> obj;
+    std::vector<cv::Point2d> img;
+    for (int k : chosen) {
+      const auto& c = target.ring(pairs[k].ring_id).centre_P_m;
+      obj.emplace_back(c.x(), c.y(), 0.0);
+      img.emplace_back(pairs[k].centre.x(), pairs[k].centre.y());
+    }
+    std::vector<cv::Mat> rvecs, tvecs;
+    try {
+      cv::solvePnPGeneric(obj, img, Kcv, cv::noArray(), rvecs, tvecs, false, cv::SOLVEPNP_IPPE);
+    } catch (const cv::Exception& e) {
+      return fail(VisionStatus::PoseFailed, std::string("IPPE failed: ") + e.what());
+    }
+    double best_max = 1e18;
+    std::vector<double> best_err;
+    for (std::size_t s = 0; s < rvecs.size(); ++s) {
+      cv::Mat R;
+      cv::Rodrigues(rvecs[s], R);
+      Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+      for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) X.linear()(r, c) = R.at<double>(r, c);
+        X.translation()(r) = tvecs[s].at<double>(r);
+      }
+      if (X.translation().z() <= 0) continue;
+      std::vector<double> err;
+      double mx = 0.0;
+      for (int k : chosen) {
+        err.push_back((project(K, X, target.ring(pairs[k].ring_id).centre_P_m) - pairs[k].centre)
+                          .norm());
+        mx = std::max(mx, err.back());
+      }
+      if (mx < best_max) {
+        best_max = mx;
+        best_err = err;
+        X0 = X;
+      }
+    }
+    if (best_err.empty()) return fail(VisionStatus::PoseFailed, "IPPE gave no solution in front");
+    if (best_max <= p.max_centre_reproj_px) break;
+    // Hexagon layout check: drop the centre least consistent with the others and retry.
+    if (static_cast<int>(chosen.size()) <= p.min_rings) {
+      fill_centres();
+      return fail(VisionStatus::PoseFailed,
+                  "identified centres inconsistent with the ring layout (max error " +
+                      std::to_string(best_max) + " px)");
+    }
+    const auto worst = std::max_element(best_err.begin(), best_err.end()) - best_err.begin();
+    used_ellipse[pairs[chosen[worst]].outer] = used_ellipse[pairs[chosen[worst]].inner] = false;
+    chosen.erase(chosen.begin() + worst);
+  }
+  // Use the layout to recover pairs whose ratio was ambiguous: an unused concentric pair at
+  // the predicted centre of an unidentified ring set with a ratio within twice the tolerance.
+  for (const auto& ring : target.rings) {
+    if (id_used(ring.id)) continue;
+    const Eigen::Vector2d pred = project(K, X0, ring.centre_P_m);
+    int best = -1;
+    double best_d = p.max_centre_reproj_px;
+    for (std::size_t k = 0; k < pairs.size(); ++k) {
+      const auto& pc = pairs[k];
+      if (used_ellipse[pc.outer] || used_ellipse[pc.inner]) continue;
+      if (std::abs(pc.ratio - ring.radius_ratio()) > 2 * p.ratio_tol) continue;
+      const double dist = (pc.centre - pred).norm();
+      if (dist < best_d) {
+        best_d = dist;
+        best = static_cast<int>(k);
+      }
+    }
+    if (best >= 0) {
+      pairs[best].ring_id = ring.id;
+      pairs[best].err = std::abs(pairs[best].ratio - ring.radius_ratio());
+      used_ellipse[pairs[best].outer] = used_ellipse[pairs[best].inner] = true;
+      chosen.push_back(best);
+    }
+  }
+  fill_centres();
+
+  // Levenberg-Marquardt on the conic reprojection cost, eq. (14)-(15).
+  std::vector<vision_internal::ConicObservation> obs;
+  for (int k : chosen) {
+    const RingSet& ring = target.ring(pairs[k].ring_id);
+    obs.push_back({ring.centre_P_m, ring.outer_radius_m, &cands[pairs[k].outer].points});
+    obs.push_back({ring.centre_P_m, ring.inner_radius_m, &cands[pairs[k].inner].points});
+  }
+  const auto ref = vision_internal::refine_pose_conics(K, X0, obs, p.refine_points_per_ellipse,
+                                                       p.refine_max_iter);
+  if (!ref.ok) return fail(VisionStatus::PoseFailed, "conic refinement (eq. 14-15) failed");
+  d.X_CP = ref.X_CP;
+  d.cov = ref.cov;
+  d.edge_rms_px = ref.rms_px;
+  d.refine_iterations = ref.iterations;
+  // Eq. (30): sum over identified centres of |x_i - H X_i|^2.
+  double sum = 0.0;
+  for (int k : chosen) {
+    sum += (project(K, d.X_CP, target.ring(pairs[k].ring_id).centre_P_m) - pairs[k].centre)
+               .squaredNorm();
+  }
+  d.reproj_err_sum_px2 = sum;
+  d.reproj_err_px = std::sqrt(sum / chosen.size());
+  if (d.reproj_err_px > p.max_reproj_err_px || d.edge_rms_px > p.max_edge_residual_px) {
+    std::ostringstream os;
+    os << "reprojection error " << d.reproj_err_px << " px (gate " << p.max_reproj_err_px
+       << "), conic residual " << d.edge_rms_px << " px (gate " << p.max_edge_residual_px << ")";
+    return fail(VisionStatus::ReprojectionTooLarge, os.str());
+  }
+  d.detected = true;
+  d.status = VisionStatus::Detected;
+  std::ostringstream os;
+  os << chosen.size() << " ring sets identified";
+  d.reason = os.str();
+  return true;
+}
+
+}  // namespace
+
+RingTargetDetector::RingTargetDetector(CameraModel camera, TargetGeometry target,
+                                       VisionParams params)
+    : camera_(std::move(camera)), target_(std::move(target)), params_(std::move(params)) {
+  camera_.validate();
+  target_.validate();
+  params_.validate();
+}
+
+void RingTargetDetector::reset() {
+  have_prediction_ = false;
+  have_keyframe_ = false;
+  misses_ = 0;
+  rejections_ = 0;
+}
+
+RingDetection RingTargetDetector::detect(const cv::Mat& image) {
+  const auto t0 = std::chrono::steady_clock::now();
+  RingDetection d;
+  auto finish = [&]() {
+    d.time_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    return d;
+  };
+  if (image.empty()) {
+    d.status = VisionStatus::EmptyImage;
+    d.reason = "empty image";
+    return finish();
+  }
+  cv::Mat grey;
+  if (!to_grey(image, grey)) {
+    d.status = VisionStatus::UnsupportedImage;
+    d.reason = "unsupported pixel type (need 8/16-bit grey, BGR or BGRA)";
+    return finish();
+  }
+  if (grey.cols != camera_.width_px || grey.rows != camera_.height_px) {
+    d.status = VisionStatus::ImageSizeMismatch;
+    d.reason = "image is " + std::to_string(grey.cols) + "x" + std::to_string(grey.rows) +
+               ", calibration is " + std::to_string(camera_.width_px) + "x" +
+               std::to_string(camera_.height_px);
+    return finish();
+  }
+  const cv::Rect full(0, 0, grey.cols, grey.rows);
+  bool done = false;
+  if (params_.tracking && have_prediction_) {
+    // Predicted region: the outer circles projected with the last pose, plus a margin.
+    std::vector<cv::Point3d> pts;
+    for (const auto& ring : target_.rings) {
+      for (int k = 0; k < 12; ++k) {
+        const double a = 2 * M_PI * k / 12;
+        const Eigen::Vector3d q =
+            X_CP_pred_ * Eigen::Vector3d(ring.centre_P_m.x() + ring.outer_radius_m * std::cos(a),
+                                         ring.centre_P_m.y() + ring.outer_radius_m * std::sin(a), 0);
+        if (q.z() > 0.05) pts.emplace_back(q.x(), q.y(), q.z());
+      }
+    }
+    if (!pts.empty()) {
+      std::vector<cv::Point2d> img;
+      const cv::Mat Kcv = (cv::Mat_<double>(3, 3) << camera_.fx_px, 0, camera_.cx_px, 0,
+                           camera_.fy_px, camera_.cy_px, 0, 0, 1);
+      const cv::Mat Dcv = (cv::Mat_<double>(1, 5) << camera_.k1, camera_.k2, camera_.p1,
+                           camera_.p2, camera_.k3);
+      cv::projectPoints(pts, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), Kcv, Dcv, img);
+      double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
+      for (const auto& q : img) {
+        x0 = std::min(x0, q.x);
+        y0 = std::min(y0, q.y);
+        x1 = std::max(x1, q.x);
+        y1 = std::max(y1, q.y);
+      }
+      const double mx = params_.roi_margin * (x1 - x0), my = params_.roi_margin * (y1 - y0);
+      const cv::Rect2d r(x0 - mx, y0 - my, x1 - x0 + 2 * mx, y1 - y0 + 2 * my);
+      const cv::Rect roi = cv::Rect(cv::Point(static_cast<int>(std::floor(r.x)),
+                                              static_cast<int>(std::floor(r.y))),
+                                    cv::Point(static_cast<int>(std::ceil(r.x + r.width)),
+                                              static_cast<int>(std::ceil(r.y + r.height)))) &
+                           full;
+      if (roi.width >= 16 && roi.height >= 16 && roi.area() < 0.7 * full.area()) {
+        done = run_region(grey, roi, camera_, target_, params_, d);
+        d.used_roi = done;
+      }
+    }
+  }
+  if (!done && grey.cols >= 16 && grey.rows >= 16) {
+    run_region(grey, full, camera_, target_, params_, d);
+  } else if (!done) {
+    d.status = VisionStatus::NoEllipses;
+    d.reason = "image too small to hold the target";
+  }
+
+  // Tracking state: constant-pose prediction, dropped after a few misses.
+  if (d.detected) {
+    have_prediction_ = true;
+    X_CP_pred_ = d.X_CP;
+    misses_ = 0;
+  } else if (++misses_ > params_.max_frames_without_detection) {
+    have_prediction_ = false;
+  }
+  // Keyframe selection, eq. (17)-(18).
+  if (!d.detected) {
+    d.keyframe_status = KeyframeStatus::NotDetected;
+  } else if (!have_keyframe_) {
+    d.keyframe = true;
+    d.keyframe_status = KeyframeStatus::First;
+  } else {
+    d.rho = keyframe_rho(X_CP_key_, d.X_CP);
+    if (d.rho <= params_.rho_max) {
+      d.keyframe = true;
+      d.keyframe_status = KeyframeStatus::Accepted;
+    } else if (++rejections_ > params_.keyframe_reset_after) {
+      d.keyframe = true;
+      d.keyframe_status = KeyframeStatus::Restarted;
+    } else {
+      d.keyframe_status = KeyframeStatus::Rejected;
+    }
+  }
+  if (d.keyframe) {
+    have_keyframe_ = true;
+    X_CP_key_ = d.X_CP;
+    rejections_ = 0;
+  }
+  return finish();
+}
+
+RingDetection detect_ring_target(const cv::Mat& image, const CameraModel& camera,
+                                 const TargetGeometry& target, const VisionParams& params) {
+  VisionParams p = params;
+  p.tracking = false;
+  RingTargetDetector det(camera, target, p);
+  return det.detect(image);
+}
+
+PlatformObservation to_platform_observation(const RingDetection& d, double t_s) {
+  PlatformObservation o;
+  o.t_s = t_s;
+  o.detected = d.detected;
+  o.keyframe = d.keyframe;
+  o.X_CP = d.X_CP;
+  o.cov = d.cov;
+  o.rings_identified = static_cast<int>(d.centres.size());
+  o.reproj_err_px = d.reproj_err_px;
+  return o;
+}
+
+namespace {
+std::string esc(const std::string& s) {
+  std::string o;
+  for (char c : s) {
+    if (c == '"' || c == '\\') {
+      o += '\\';
+      o += c;
+    } else if (static_cast<unsigned char>(c) < 0x20) {
+      o += ' ';
+    } else {
+      o += c;
+    }
+  }
+  return o;
+}
+}  // namespace
+
+std::string to_json(const RingDetection& d) {
+  std::ostringstream os;
+  os << std::setprecision(10);
+  auto num = [&](double v) {
+    if (std::isfinite(v)) {
+      os << v;
+    } else {
+      os << "null";
+    }
+  };
+  const Eigen::Quaterniond q(d.X_CP.linear());
+  os << "{\"detected\": " << (d.detected ? "true" : "false") << ", \"status\": \""
+     << to_string(d.status) << "\", \"reason\": \"" << esc(d.reason) << "\"";
+  os << ", \"p_CP_m\": [";
+  num(d.X_CP.translation().x());
+  os << ", ";
+  num(d.X_CP.translation().y());
+  os << ", ";
+  num(d.X_CP.translation().z());
+  os << "], \"q_CP_wxyz\": [";
+  num(q.w());
+  os << ", ";
+  num(q.x());
+  os << ", ";
+  num(q.y());
+  os << ", ";
+  num(q.z());
+  os << "], \"cov_rot_trans\": [";
+  for (int r = 0; r < 6; ++r) {
+    os << (r ? ", [" : "[");
+    for (int c = 0; c < 6; ++c) {
+      if (c) os << ", ";
+      num(d.cov(r, c));
+    }
+    os << "]";
+  }
+  os << "], \"reproj_err_px\": ";
+  num(d.reproj_err_px);
+  os << ", \"reproj_err_sum_px2\": ";
+  num(d.reproj_err_sum_px2);
+  os << ", \"edge_rms_px\": ";
+  num(d.edge_rms_px);
+  os << ", \"keyframe\": " << (d.keyframe ? "true" : "false") << ", \"keyframe_status\": \""
+     << to_string(d.keyframe_status) << "\", \"rho\": ";
+  num(d.rho);
+  os << ", \"used_roi\": " << (d.used_roi ? "true" : "false") << ", \"roi\": [" << d.roi.x
+     << ", " << d.roi.y << ", " << d.roi.width << ", " << d.roi.height << "], \"time_ms\": ";
+  num(d.time_ms);
+  os << ", \"centres\": [";
+  for (std::size_t i = 0; i < d.centres.size(); ++i) {
+    const auto& c = d.centres[i];
+    os << (i ? ", " : "") << "{\"ring_id\": " << c.ring_id << ", \"centre_px\": [";
+    num(c.centre_px.x());
+    os << ", ";
+    num(c.centre_px.y());
+    os << "], \"centre_image_px\": [";
+    num(c.centre_image_px.x());
+    os << ", ";
+    num(c.centre_image_px.y());
+    os << "], \"radius_ratio\": ";
+    num(c.radius_ratio);
+    os << "}";
+  }
+  os << "], \"ellipses\": [";
+  for (std::size_t i = 0; i < d.ellipses.size(); ++i) {
+    const auto& e = d.ellipses[i];
+    os << (i ? ", " : "") << "{\"ring_id\": " << e.ring_id
+       << ", \"outer\": " << (e.outer ? "true" : "false") << ", \"centre_px\": [";
+    num(e.image.centre.x());
+    os << ", ";
+    num(e.image.centre.y());
+    os << "], \"axes_px\": [";
+    num(e.image.a);
+    os << ", ";
+    num(e.image.b);
+    os << "], \"angle_rad\": ";
+    num(e.image.angle_rad);
+    os << ", \"fit_rms_px\": ";
+    num(e.fit_rms_px);
+    os << "}";
+  }
+  os << "]}";
+  return os.str();
+}
+
+CameraModel load_camera_model(const std::string& path) {
+  CameraModel cam;
+  read_params(load_yaml_file(path), path, cam);
+  return cam;
+}
+
+}  // namespace lander

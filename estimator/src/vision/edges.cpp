@@ -1,0 +1,228 @@
+// Stages 1-2 of the ring detector: pre-processing (seed 000 section 2.1) and sub-pixel
+// ellipse fitting.
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "vision/internal.h"
+
+namespace lander::vision_internal {
+
+namespace {
+
+// Bilinear grey value at (x, y) in an 8-bit image; false outside.
+inline bool sample(const cv::Mat& img, double x, double y, double& out) {
+  if (x < 0.0 || y < 0.0 || x > img.cols - 1.001 || y > img.rows - 1.001) return false;
+  const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
+  const double fx = x - x0, fy = y - y0;
+  const std::uint8_t* r0 = img.ptr<std::uint8_t>(y0);
+  const std::uint8_t* r1 = img.ptr<std::uint8_t>(y0 + 1);
+  out = (1 - fy) * ((1 - fx) * r0[x0] + fx * r0[x0 + 1]) + fy * ((1 - fx) * r1[x0] + fx * r1[x0 + 1]);
+  return true;
+}
+
+EllipseParams from_rotated_rect(const cv::RotatedRect& rr, const cv::Point2f& offset) {
+  EllipseParams e;
+  e.centre = Eigen::Vector2d(rr.center.x + offset.x, rr.center.y + offset.y);
+  const double ang = rr.angle * M_PI / 180.0;
+  if (rr.size.width >= rr.size.height) {
+    e.a = 0.5 * rr.size.width;
+    e.b = 0.5 * rr.size.height;
+    e.angle_rad = ang;
+  } else {
+    e.a = 0.5 * rr.size.height;
+    e.b = 0.5 * rr.size.width;
+    e.angle_rad = ang + 0.5 * M_PI;
+  }
+  return e;
+}
+
+// Minimum grey-level swing along a normal profile for an edge point to count.
+constexpr double kMinEdgeContrast = 12.0;
+// Profile step along the normal (px): fine enough that linear interpolation of the
+// mid-level crossing adds far less than 0.01 px for the blurred edges seen here.
+constexpr double kProfileStepPx = 0.25;
+
+// Sub-pixel edge points of ellipse `e` (full-image px): along each sampled normal, the
+// crossing of the mid-level between the profile's darkest and brightest values nearest to
+// the ellipse. `img` is the (blurred) ROI, `off` its origin in the full image.
+std::vector<Eigen::Vector2d> edge_points(const cv::Mat& img, const cv::Point2f& off,
+                                         const EllipseParams& e, const VisionParams& p) {
+  std::vector<Eigen::Vector2d> pts;
+  const int n = p.edge_samples;
+  pts.reserve(n);
+  const double L = std::clamp(std::min(p.edge_search_px, 0.6 * e.b), 1.0, p.edge_search_px);
+  const int m = static_cast<int>(std::round(2 * L / kProfileStepPx)) + 1;
+  std::vector<double> prof(m);
+  const double ca = std::cos(e.angle_rad), sa = std::sin(e.angle_rad);
+  for (int k = 0; k < n; ++k) {
+    const double th = 2.0 * M_PI * (k + 0.5) / n;
+    const double lx = e.a * std::cos(th), ly = e.b * std::sin(th);
+    const Eigen::Vector2d x(e.centre.x() + ca * lx - sa * ly - off.x,
+                            e.centre.y() + sa * lx + ca * ly - off.y);
+    Eigen::Vector2d nl(std::cos(th) / e.a, std::sin(th) / e.b);
+    Eigen::Vector2d nrm(ca * nl.x() - sa * nl.y(), sa * nl.x() + ca * nl.y());
+    nrm.normalize();
+    bool ok = true;
+    double lo = 1e9, hi = -1e9;
+    for (int j = 0; j < m && ok; ++j) {
+      const double s = -L + j * kProfileStepPx;
+      ok = sample(img, x.x() + s * nrm.x(), x.y() + s * nrm.y(), prof[j]);
+      lo = std::min(lo, prof[j]);
+      hi = std::max(hi, prof[j]);
+    }
+    if (!ok || hi - lo < kMinEdgeContrast) continue;
+    const double level = 0.5 * (lo + hi);
+    double best = 1e9;
+    for (int j = 0; j + 1 < m; ++j) {
+      const double d0 = prof[j] - level, d1 = prof[j + 1] - level;
+      if ((d0 < 0) == (d1 < 0) && d0 != 0) continue;
+      const double f = (d0 == d1) ? 0.5 : d0 / (d0 - d1);
+      const double s = -L + (j + f) * kProfileStepPx;
+      if (std::abs(s) < std::abs(best)) best = s;
+    }
+    if (std::abs(best) > L) continue;
+    pts.emplace_back(x.x() + best * nrm.x() + off.x, x.y() + best * nrm.y() + off.y);
+  }
+  return pts;
+}
+
+// Refits after dropping points farther than max(floor, 4 x median) from the conic.
+std::optional<Conic> robust_fit(std::vector<Eigen::Vector2d>& pts, double* rms) {
+  auto C = fit_ellipse(pts);
+  if (!C) return std::nullopt;
+  std::vector<double> d(pts.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) d[i] = std::abs(sampson_distance(*C, pts[i]));
+  std::vector<double> sorted = d;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double gate = std::max(0.3, 4.0 * sorted[sorted.size() / 2]);  // px
+  std::vector<Eigen::Vector2d> kept;
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    if (d[i] <= gate) kept.push_back(pts[i]);
+  }
+  if (kept.size() < 0.6 * pts.size() || kept.size() < 6) return std::nullopt;
+  pts.swap(kept);
+  return fit_ellipse(pts, rms);
+}
+
+}  // namespace
+
+std::vector<EllipseCandidate> find_ellipses(const cv::Mat& grey, const cv::Rect& roi,
+                                            const CameraModel& cam, const VisionParams& p) {
+  std::vector<EllipseCandidate> out;
+  const cv::Mat sub = grey(roi);
+  const cv::Point2f off(static_cast<float>(roi.x), static_cast<float>(roi.y));
+  cv::Mat blurred;
+  if (p.gaussian_sigma_px > 0) {
+    cv::GaussianBlur(sub, blurred, cv::Size(0, 0), p.gaussian_sigma_px);
+  } else {
+    blurred = sub;
+  }
+  // Dark annuli become foreground (255).
+  cv::Mat bin;
+  if (p.adaptive_threshold) {
+    cv::adaptiveThreshold(blurred, bin, 255, cv::ADAPTIVE_THRESH_MEAN_C, cv::THRESH_BINARY_INV,
+                          p.adaptive_block_px, p.adaptive_offset);
+  } else {
+    cv::threshold(blurred, bin, 0, 255, cv::THRESH_BINARY_INV | cv::THRESH_OTSU);
+  }
+  const cv::Mat kernel =
+      cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(p.close_kernel_px, p.close_kernel_px));
+  if (p.canny_edges) {
+    cv::Mat edges;
+    cv::Canny(bin, edges, 50, 150);
+    if (p.close_kernel_px > 1) cv::morphologyEx(edges, edges, cv::MORPH_CLOSE, kernel);
+    bin = edges;
+  } else if (p.close_kernel_px > 1) {
+    cv::morphologyEx(bin, bin, cv::MORPH_CLOSE, kernel);
+  }
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(bin, contours, cv::RETR_LIST, cv::CHAIN_APPROX_NONE);
+
+  const cv::Mat Kcv = (cv::Mat_<double>(3, 3) << cam.fx_px, 0, cam.cx_px, 0, cam.fy_px, cam.cy_px,
+                       0, 0, 1);
+  const cv::Mat Dcv = (cv::Mat_<double>(1, 5) << cam.k1, cam.k2, cam.p1, cam.p2, cam.k3);
+  for (const auto& c : contours) {
+    if (static_cast<int>(c.size()) < p.min_contour_points) continue;
+    const cv::Rect br = cv::boundingRect(c);
+    // A contour cut by the search region is not a whole ellipse.
+    if (br.x <= 0 || br.y <= 0 || br.x + br.width >= roi.width || br.y + br.height >= roi.height) {
+      continue;
+    }
+    const EllipseParams e0 = from_rotated_rect(cv::fitEllipse(c), off);
+    if (!(e0.b >= p.min_axis_px) || e0.b < p.min_axis_ratio * e0.a) continue;
+    // Contour length must be close to the ellipse perimeter (Ramanujan), a cheap shape gate.
+    const double h = std::pow((e0.a - e0.b) / (e0.a + e0.b), 2);
+    const double perim = M_PI * (e0.a + e0.b) * (1 + 3 * h / (10 + std::sqrt(4 - 3 * h)));
+    if (c.size() > 1.6 * perim || c.size() < 0.5 * perim) continue;
+    // Pixel-contour fit residual gate.
+    const Conic C0 = conic_from_ellipse(e0);
+    double ss = 0.0;
+    const int stride = std::max<int>(1, static_cast<int>(c.size()) / 64);
+    int cnt = 0;
+    for (std::size_t i = 0; i < c.size(); i += stride, ++cnt) {
+      const double d = sampson_distance(C0, Eigen::Vector2d(c[i].x + off.x, c[i].y + off.y));
+      ss += d * d;
+    }
+    if (std::sqrt(ss / cnt) > p.max_contour_fit_rms_px) continue;
+
+    // Sub-pixel edges and refit, in raw image px.
+    EllipseParams e = e0;
+    std::vector<Eigen::Vector2d> pts;
+    bool ok = true;
+    double rms = 0.0;
+    for (int it = 0; it < std::max(1, p.refine_iterations) && ok; ++it) {
+      pts = edge_points(blurred, off, e, p);
+      if (static_cast<int>(pts.size()) < std::max(6, static_cast<int>(0.6 * p.edge_samples))) {
+        ok = false;
+        break;
+      }
+      const auto C = robust_fit(pts, &rms);
+      const auto en = C ? ellipse_from_conic(*C) : std::nullopt;
+      if (!en) {
+        ok = false;
+        break;
+      }
+      e = *en;
+    }
+    if (!ok || rms > p.max_edge_fit_rms_px) continue;
+    EllipseCandidate cand;
+    cand.image = e;
+    // Undistort the edge points (never the image), then fit in undistorted px.
+    if (cam.has_distortion()) {
+      std::vector<cv::Point2d> src(pts.size()), dst;
+      for (std::size_t i = 0; i < pts.size(); ++i) src[i] = cv::Point2d(pts[i].x(), pts[i].y());
+      cv::undistortPoints(src, dst, Kcv, Dcv, cv::noArray(), Kcv);
+      for (std::size_t i = 0; i < pts.size(); ++i) pts[i] = Eigen::Vector2d(dst[i].x, dst[i].y);
+    }
+    const auto C = fit_ellipse(pts, &rms);
+    const auto eu = C ? ellipse_from_conic(*C) : std::nullopt;
+    if (!eu || rms > p.max_edge_fit_rms_px) continue;
+    cand.C = *C;
+    cand.undist = *eu;
+    cand.points = std::move(pts);
+    cand.fit_rms_px = rms;
+    out.push_back(std::move(cand));
+  }
+  // Duplicates (both sides of a Canny edge converge on the same sub-pixel edge): keep one.
+  constexpr double kSameEllipsePx = 0.5;
+  std::vector<EllipseCandidate> unique;
+  for (auto& c : out) {
+    bool dup = false;
+    for (auto& u : unique) {
+      if ((c.undist.centre - u.undist.centre).norm() < kSameEllipsePx &&
+          std::abs(c.undist.a - u.undist.a) < kSameEllipsePx &&
+          std::abs(c.undist.b - u.undist.b) < kSameEllipsePx) {
+        if (c.fit_rms_px < u.fit_rms_px) u = c;
+        dup = true;
+        break;
+      }
+    }
+    if (!dup) unique.push_back(std::move(c));
+  }
+  return unique;
+}
+
+}  // namespace lander::vision_internal

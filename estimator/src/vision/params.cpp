@@ -1,0 +1,35 @@
+#include "lander/estimator/vision_params.h"
+
+namespace lander {
+
+void VisionParams::validate() const {
+  require(gaussian_sigma_px >= 0 && gaussian_sigma_px <= 10, "gaussian_sigma_px", "must be in [0, 10]");
+  require(adaptive_block_px >= 3 && adaptive_block_px % 2 == 1, "adaptive_block_px",
+          "must be odd and >= 3");
+  require(close_kernel_px >= 1 && close_kernel_px <= 15, "close_kernel_px", "must be in [1, 15]");
+  require(min_contour_points >= 6, "min_contour_points", "must be >= 6 (an ellipse needs 5)");
+  require(min_axis_px > 0, "min_axis_px", "must be > 0");
+  require(min_axis_ratio > 0 && min_axis_ratio < 1, "min_axis_ratio", "must be in (0, 1)");
+  require(max_contour_fit_rms_px > 0, "max_contour_fit_rms_px", "must be > 0");
+  require(edge_samples >= 12 && edge_samples <= 1024, "edge_samples", "must be in [12, 1024]");
+  require(edge_search_px >= 1 && edge_search_px <= 20, "edge_search_px", "must be in [1, 20]");
+  require(refine_iterations >= 1 && refine_iterations <= 10, "refine_iterations",
+          "must be in [1, 10]");
+  require(max_edge_fit_rms_px > 0, "max_edge_fit_rms_px", "must be > 0");
+  require(max_centre_offset_ratio > 0, "max_centre_offset_ratio", "must be > 0");
+  require(harmonic_tol_px > 0, "harmonic_tol_px", "must be > 0");
+  require(harmonic_max_iter >= 2, "harmonic_max_iter", "must be >= 2");
+  require(ratio_tol > 0 && ratio_tol < 0.5, "ratio_tol", "must be in (0, 0.5)");
+  require(min_rings >= 4, "min_rings", "must be >= 4 (planar PnP needs four points)");
+  require(max_centre_reproj_px > 0, "max_centre_reproj_px", "must be > 0");
+  require(refine_max_iter >= 0, "refine_max_iter", "must be >= 0");
+  require(refine_points_per_ellipse >= 6, "refine_points_per_ellipse", "must be >= 6");
+  require(max_reproj_err_px > 0, "max_reproj_err_px", "must be > 0");
+  require(max_edge_residual_px > 0, "max_edge_residual_px", "must be > 0");
+  require(rho_max > 0 && rho_max <= 1, "rho_max", "must be in (0, 1]");
+  require(keyframe_reset_after >= 0, "keyframe_reset_after", "must be >= 0");
+  require(roi_margin >= 0, "roi_margin", "must be >= 0");
+  require(max_frames_without_detection >= 0, "max_frames_without_detection", "must be >= 0");
+}
+
+}  // namespace lander
