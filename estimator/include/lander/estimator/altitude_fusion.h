@@ -1,0 +1,213 @@
+// Altitude fusion (seed 004 section 4) and the barometric altitude formula (seed 004 eq. 8).
+#pragma once
+
+#include <array>
+#include <initializer_list>
+#include <utility>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "lander/estimator/params_io.h"
+#include "lander/estimator/state.h"
+#include "lander/estimator/types.h"
+
+namespace lander {
+
+// ------------------------------------------------------------------ ISA, seed 004 eq. 8
+// International Standard Atmosphere, troposphere (0-11 km):
+//   H = T_b / beta [ (P_H / P_b)^(-beta r / g_n) - 1 ] + H_b                        (eq. 8)
+// with T_b = 288.15 K, P_b = 101325 Pa, H_b = 0 m, beta = -0.0065 K/m (temperature lapse
+// dT/dH), r = 287.05287 J/(kg K), g_n = 9.80665 m/s^2. The inverse gives P_H from H.
+struct IsaConstants {
+  static constexpr double kTb_K = 288.15;
+  static constexpr double kPb_Pa = 101325.0;
+  static constexpr double kHb_m = 0.0;
+  static constexpr double kBeta_K_per_m = -0.0065;
+  static constexpr double kR_J_per_kgK = 287.05287;
+  static constexpr double kGn_mps2 = 9.80665;
+};
+// Geopotential altitude above sea level (m) from static pressure (Pa), eq. 8.
+double isa_altitude_m(double pressure_pa);
+// Static pressure (Pa) at altitude above sea level (m), the inverse of eq. 8.
+double isa_pressure_pa(double altitude_m);
+
+// ------------------------------------------------------------------- fusion parameters
+struct AltitudeFusionParams {
+  // Barometer reference: altitude of the W origin above sea level (m); the barometric
+  // altitude in W is isa_altitude_m(p) - baro_origin_msl_m (its error is the bias state).
+  double baro_origin_msl_m{0.0};
+  // Measurement noise std (the diagonal of R, eq. 22) per sensor (m).
+  double baro_std_m{0.15};
+  double gps_std_m{1.2};
+  double ultrasonic_std_m{0.005};
+  double vision_std_m{0.05};        ///< used when update_vision is called without a std
+  // Process noise (Q, eq. 21), as continuous-time densities.
+  double accel_noise_mps2{0.1};     ///< white vertical-accel noise density (m/s^2/sqrt(Hz))
+  double accel_bias_rw_mps3{0.01};  ///< vertical accel bias random walk (m/s^2/sqrt(s))
+  double baro_bias_rw_mps{0.01};    ///< baro bias drift, random walk (m/sqrt(s))
+  double surface_rw_mps{0.1};       ///< surface height below changes (terrain) (m/sqrt(s))
+  double platform_rw_mps{0.002};    ///< target plane height (cart bounces) (m/sqrt(s))
+  // Initial uncertainty (P_0).
+  double initial_baro_bias_std_m{3.0};
+  double initial_accel_bias_std_mps2{0.2};
+  double platform_height_m{0.8};      ///< prior height of the target plane in W (m)
+  double platform_height_std_m{0.05}; ///< its std (m)
+  // Measurement-set switch (eq. 15-18): below this estimated height above the surface the
+  // ultrasonic set (eq. 17) is used, above it the baro set (eq. 15).
+  double switch_height_m{3.0};
+  double switch_hysteresis_m{0.1};
+  // Ultrasonic readings outside [min, max] are rejected (seed 004 eq. 12: garbage).
+  double ultrasonic_min_m{0.15};
+  double ultrasonic_max_m{3.0};
+  // Residual gate (eq. 27): a residual component beyond gate_sigma * sqrt(P~) has its gain
+  // multiplied by gate_factor_n (the paper's n in [0, 1], 2 sigma in the paper).
+  double gate_sigma{2.0};
+  double gate_factor_n{0.1};
+  // Surface-step detector for the range sensors (platform edge): a gated ultrasonic residual
+  // of at least step_min_m starts a candidate step; step_count consecutive ones that agree
+  // within step_agree_m re-reference the surface instead of moving the height.
+  double step_min_m{0.3};
+  int step_count{3};
+  double step_agree_m{0.05};
+  // Latency compensation: a sample older than this is dropped (s).
+  double max_sample_age_s{0.5};
+
+  void validate() const;
+};
+
+template <class V>
+void visit_fields(V& v, AltitudeFusionParams& p) {
+  v("baro_origin_msl_m", p.baro_origin_msl_m);
+  v("baro_std_m", p.baro_std_m);
+  v("gps_std_m", p.gps_std_m);
+  v("ultrasonic_std_m", p.ultrasonic_std_m);
+  v("vision_std_m", p.vision_std_m);
+  v("accel_noise_mps2", p.accel_noise_mps2);
+  v("accel_bias_rw_mps3", p.accel_bias_rw_mps3);
+  v("baro_bias_rw_mps", p.baro_bias_rw_mps);
+  v("surface_rw_mps", p.surface_rw_mps);
+  v("platform_rw_mps", p.platform_rw_mps);
+  v("initial_baro_bias_std_m", p.initial_baro_bias_std_m);
+  v("initial_accel_bias_std_mps2", p.initial_accel_bias_std_mps2);
+  v("platform_height_m", p.platform_height_m);
+  v("platform_height_std_m", p.platform_height_std_m);
+  v("switch_height_m", p.switch_height_m);
+  v("switch_hysteresis_m", p.switch_hysteresis_m);
+  v("ultrasonic_min_m", p.ultrasonic_min_m);
+  v("ultrasonic_max_m", p.ultrasonic_max_m);
+  v("gate_sigma", p.gate_sigma);
+  v("gate_factor_n", p.gate_factor_n);
+  v("step_min_m", p.step_min_m);
+  v("step_count", p.step_count);
+  v("step_agree_m", p.step_agree_m);
+  v("max_sample_age_ms", p.max_sample_age_s, 1e-3);
+}
+
+// Vertical acceleration in W (m/s^2, gravity removed) from an IMU specific force and the
+// attitude: a_z = (R_WB f_B).z - g.
+double vertical_accel_W(const ImuSample& imu, const Eigen::Quaterniond& q_WB,
+                        double gravity_mps2 = 9.81);
+
+// The adaptive Kalman filter of seed 004 section 4, for a multirotor.
+//
+// State x = [z, vz, eps_b, b_a, s, c]:
+//   z     height of B in W (m) (the paper's h_0),
+//   vz    vertical velocity (m/s),
+//   eps_b barometer bias (m) (eq. 9),
+//   b_a   vertical accelerometer bias (m/s^2),
+//   s     height in W of the surface straight below (ground or platform top) (m),
+//   c     height in W of the target plane (platform top) seen by vision (m).
+// Seed 004 predicts h with its helicopter model eq. 13-14 (main-rotor speed and collective
+// pitch). That model does not fit a multirotor (no collective, six fixed-pitch rotors), so
+// here the prediction (eq. 19) integrates the IMU's vertical acceleration instead:
+//   z += vz dt + (a - b_a) dt^2/2,  vz += (a - b_a) dt,  eps_b, b_a, s, c constant (+ noise).
+// Measurements (rows of H, eq. 15 and 17, extended by the surface states):
+//   baro        h_q = z + eps_b        (eq. 9; used above the switch height, eq. 15)
+//   GPS         h_g = z                (eq. 10; both sets)
+//   ultrasonic  h_c = z - s            (eq. 12; below the switch height only, eq. 17)
+//   vision      h_v = z - c            (eq. 7 / ring pose; both sets)
+// The paper stacks the components of one epoch; our sensors arrive at their own rates, so
+// each arriving component is one scalar update with its row of H (equal to the stacked
+// update for independent noises). Each component is gated as in eq. 27: with residual
+// r = Z - H x (eq. 25) and P~ = H P H^T + R (eq. 26), the gain is K if |r| <= 2 sqrt(P~),
+// else n K. Late samples (stamped t < now) are compared with the state moved back by
+// vz (now - t) (first-order latency compensation).
+//
+// Platform edge: ultrasonic measures z - s, not z, so when the vehicle crosses the edge the
+// reading jumps by the platform height while z does not move. The jump is a large residual,
+// gated by eq. 27 and offered to a step detector; step_count consecutive agreeing residuals
+// re-reference s by their mean (s -= mean residual, with P_ss inflated by the spread),
+// leaving z and vz untouched, so the height in W shows no spike and the height above the
+// surface jumps as the truth does. Gated residuals smaller than step_min_m get n K.
+// Between ultrasonic contacts s random-walks (surface_rw_mps), so when the vehicle comes
+// down into range over unknown ground the first readings mostly fix s, not z.
+class AltitudeFusion {
+ public:
+  enum class Outcome {
+    kAccepted,       ///< normal update, full gain
+    kGated,          ///< residual beyond the gate: gain n K (eq. 27)
+    kRejectedRange,  ///< ultrasonic outside its valid range (eq. 12)
+    kRejectedSet,    ///< sensor not in the active measurement set (eq. 15 / 17)
+    kRejectedStale,  ///< sample older than max_sample_age_s, or from the future
+    kStepPending,    ///< range residual held by the surface-step detector
+    kSurfaceStep,    ///< surface re-referenced (platform edge)
+  };
+  static constexpr int kZ = 0, kVz = 1, kBaroBias = 2, kAccelBias = 3, kSurface = 4, kPlane = 5;
+  static constexpr int kN = 6;
+  using Vec = Eigen::Matrix<double, kN, 1>;
+  using Mat = Eigen::Matrix<double, kN, kN>;
+
+  explicit AltitudeFusion(const AltitudeFusionParams& p);  // validates p
+  // Starts the filter at t_s with the vehicle at height z_W_m over a surface at surface_W_m
+  // (e.g. on the ground before take-off: z = height of B's origin above its feet, s = 0).
+  void reset(double t_s, double z_W_m, double surface_W_m = 0.0, double vz_W_mps = 0.0);
+  // Propagates to t_s (>= current time) with the vertical acceleration in W (m/s^2, gravity
+  // removed) held over the interval. Calls with t_s <= current time do nothing.
+  void predict(double t_s, double az_W_mps2);
+  // Convenience: predict with an IMU sample and the attitude estimate (also remembers the
+  // tilt for the ultrasonic, see set_attitude).
+  void predict(const ImuSample& imu, const Eigen::Quaterniond& q_WB, double gravity_mps2 = 9.81);
+  // Attitude used to turn the slant ultrasonic range (along -z_B) into a vertical height:
+  // h = range * (R_WB)_zz (flat surface assumed).
+  void set_attitude(const Eigen::Quaterniond& q_WB);
+  Outcome update_baro(const BaroSample& s);
+  Outcome update_gps(const GpsSample& s);
+  Outcome update_ultrasonic(const UltrasonicSample& s);
+  // Vision height of B above the target plane (m), e.g. from altitude_vision.h, taken at t_s,
+  // with its std (m); std_m <= 0 uses params.vision_std_m.
+  Outcome update_vision(double t_s, double h_plane_m, double std_m = -1.0);
+
+  AltitudeEstimate estimate() const;
+  double time_s() const { return t_s_; }
+  bool ultrasonic_set_active() const { return low_set_; }  // eq. 17 set in force
+  const Vec& x() const { return x_; }
+  const Mat& P() const { return P_; }
+  const AltitudeFusionParams& params() const { return p_; }
+
+ private:
+  using Row = Eigen::Matrix<double, 1, kN>;
+  // Residual r = z - H x (eq. 25) and its variance P~ = H P H^T + R (eq. 26).
+  void residual(const Row& H, double z, double R, double* r, double* S) const;
+  // Applies K* (eq. 22, 23, 27) with gain scale (1 or n); Joseph form of eq. 24.
+  void apply(const Row& H, double r, double R, double gain_scale);
+  // Row of H with the latency compensation: H x - vz * age_s.
+  Row row(std::initializer_list<std::pair<int, double>> entries, double age_s) const;
+  // Gates one component (eq. 27) and applies it; returns kAccepted or kGated.
+  Outcome gated_update(const Row& H, double z, double R);
+  // Re-references the surface state: s = z - h_mean, with h_mean's variance var_m2.
+  void rereference_surface(double h_mean_m, double var_m2);
+  bool age_ok(double t_sample_s) const;
+  void update_set();
+
+  AltitudeFusionParams p_;
+  double t_s_{0.0};
+  Vec x_{Vec::Zero()};
+  Mat P_{Mat::Zero()};
+  bool low_set_{true};
+  double cos_tilt_{1.0};
+  std::array<double, 8> step_buf_{};
+  int step_n_{0};
+};
+
+}  // namespace lander

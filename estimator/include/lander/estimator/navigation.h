@@ -1,0 +1,101 @@
+// Navigation: attitude from gyro and accelerometer (Mahony's complementary filter on SO(3))
+// and position/velocity from GPS and accelerometer (a Kalman filter per world axis). This is
+// what seeds 000/004 read from their flight controller as R_b^n and t_b^n.
+//
+// Attitude (Mahony, Hamel, Pflimlin, "Nonlinear complementary filters on the special
+// orthogonal group", IEEE TAC 53(5), 2008, explicit complementary filter with bias):
+//   v^  = R^_WB^T e_z                       predicted "up" in B
+//   v   = f_B / |f_B|                       measured "up" (specific force at low acceleration)
+//   e   = v x v^
+//   w   = gyro - b^ + kp e,   db^/dt = -ki e,   dq/dt = q (x) [0, w/2]
+// The accelerometer correction is skipped when | |f| - g | > accel_gate_frac g (the vehicle
+// is accelerating). Yaw is not observable from gravity and there is no magnetometer in the
+// sensor set: yaw is the gyro integral from initial_yaw_deg (drifts with the z gyro bias).
+//
+// Position: for each W axis a 3-state Kalman filter [p, v, b] driven by the accelerometer in
+// W, a = R^_WB f_B - g e_z - b, updated by GPS position and velocity (latency-compensated to
+// first order), each component gated as seed 004 eq. 27 (gain n K beyond gate_sigma).
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "lander/estimator/params_io.h"
+#include "lander/estimator/state.h"
+#include "lander/estimator/types.h"
+
+namespace lander {
+
+struct NavigationParams {
+  double gravity_mps2{9.81};
+  double mahony_kp{1.0};                  ///< proportional gain (1/s)
+  double mahony_ki{0.05};                 ///< integral (gyro bias) gain (1/s^2)
+  double accel_gate_frac{0.1};            ///< skip accel correction beyond this |f|/g error
+  double gyro_bias_limit_radps{0.1};      ///< clamp of the gyro bias estimate (rad/s)
+  double initial_yaw_rad{0.0};            ///< yaw at start (rad), no magnetometer
+  double accel_noise_mps2{0.2};           ///< accel noise density in W (m/s^2/sqrt(Hz))
+  double accel_bias_rw_mps3{0.005};       ///< accel bias random walk (m/s^2/sqrt(s))
+  double initial_accel_bias_std_mps2{0.1};
+  double gps_horizontal_std_m{0.7};       ///< GPS position std x, y (m)
+  double gps_vertical_std_m{1.2};         ///< GPS position std z (m)
+  double gps_velocity_std_mps{0.1};       ///< GPS velocity std per axis (m/s)
+  double gate_sigma{3.0};                 ///< residual gate (multiples of sqrt(P~))
+  double gate_factor_n{0.1};              ///< gain factor beyond the gate (eq. 27)
+  double max_sample_age_s{0.5};           ///< older GPS fixes are dropped (s)
+
+  void validate() const;
+};
+
+template <class V>
+void visit_fields(V& v, NavigationParams& p) {
+  v("gravity_mps2", p.gravity_mps2);
+  v("mahony_kp", p.mahony_kp);
+  v("mahony_ki", p.mahony_ki);
+  v("accel_gate_frac", p.accel_gate_frac);
+  v("gyro_bias_limit_radps", p.gyro_bias_limit_radps);
+  v("initial_yaw_deg", p.initial_yaw_rad, M_PI / 180.0);
+  v("accel_noise_mps2", p.accel_noise_mps2);
+  v("accel_bias_rw_mps3", p.accel_bias_rw_mps3);
+  v("initial_accel_bias_std_mps2", p.initial_accel_bias_std_mps2);
+  v("gps_horizontal_std_m", p.gps_horizontal_std_m);
+  v("gps_vertical_std_m", p.gps_vertical_std_m);
+  v("gps_velocity_std_mps", p.gps_velocity_std_mps);
+  v("gate_sigma", p.gate_sigma);
+  v("gate_factor_n", p.gate_factor_n);
+  v("max_sample_age_ms", p.max_sample_age_s, 1e-3);
+}
+
+class Navigation {
+ public:
+  explicit Navigation(const NavigationParams& p);  // validates p
+  // Integrates one IMU sample. The first sample initialises roll and pitch from gravity
+  // (vehicle assumed at rest) and yaw from params.
+  void add_imu(const ImuSample& imu);
+  // Fuses one GPS fix. The first valid fix initialises position and velocity. Returns false
+  // if the fix was not used (invalid, stale, before the first IMU sample).
+  bool add_gps(const GpsSample& gps);
+  // The navigation solution; valid once both IMU and a GPS fix have been received.
+  NavState state() const;
+  const Eigen::Vector3d& gyro_bias_B() const { return b_g_; }
+  const Eigen::Vector3d& accel_bias_W() const { return b_a_; }
+  const NavigationParams& params() const { return p_; }
+
+ private:
+  NavigationParams p_;
+  bool att_init_{false}, pos_init_{false};
+  double t_s_{0.0};
+  Eigen::Quaterniond q_WB_{Eigen::Quaterniond::Identity()};
+  Eigen::Vector3d b_g_{Eigen::Vector3d::Zero()};
+  Eigen::Vector3d omega_B_{Eigen::Vector3d::Zero()};
+  // Per-axis filter [p, v, b] for x, y, z of W.
+  Eigen::Vector3d pos_{Eigen::Vector3d::Zero()}, vel_{Eigen::Vector3d::Zero()},
+      b_a_{Eigen::Vector3d::Zero()};
+  Eigen::Matrix3d P_[3];
+  Eigen::Vector3d a_W_{Eigen::Vector3d::Zero()};  // last bias-corrected acceleration
+};
+
+// The navigation solution with its vertical position and velocity replaced by the fused
+// altitude (altitude_fusion.h), which is far better than GPS alone.
+NavState with_altitude(NavState nav, const AltitudeEstimate& alt);
+
+}  // namespace lander

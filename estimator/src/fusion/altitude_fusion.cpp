@@ -1,0 +1,261 @@
+#include "lander/estimator/altitude_fusion.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace lander {
+
+// ------------------------------------------------------------------------------- ISA eq. 8
+double isa_altitude_m(double pressure_pa) {
+  using C = IsaConstants;
+  if (!(pressure_pa > 0)) throw std::invalid_argument("isa_altitude_m: pressure must be > 0");
+  const double expo = -C::kBeta_K_per_m * C::kR_J_per_kgK / C::kGn_mps2;
+  return C::kTb_K / C::kBeta_K_per_m * (std::pow(pressure_pa / C::kPb_Pa, expo) - 1.0) +
+         C::kHb_m;
+}
+
+double isa_pressure_pa(double altitude_m) {
+  using C = IsaConstants;
+  // Inverse of eq. 8: P = P_b (1 + beta (H - H_b) / T_b)^(-g_n / (beta r)).
+  const double base = 1.0 + C::kBeta_K_per_m * (altitude_m - C::kHb_m) / C::kTb_K;
+  if (!(base > 0)) throw std::invalid_argument("isa_pressure_pa: altitude outside the model");
+  return C::kPb_Pa * std::pow(base, -C::kGn_mps2 / (C::kBeta_K_per_m * C::kR_J_per_kgK));
+}
+
+double vertical_accel_W(const ImuSample& imu, const Eigen::Quaterniond& q_WB,
+                        double gravity_mps2) {
+  return (q_WB * imu.accel_B_mps2).z() - gravity_mps2;
+}
+
+// ------------------------------------------------------------------------------ params
+void AltitudeFusionParams::validate() const {
+  require(baro_std_m > 0, "baro_std_m", "must be > 0");
+  require(gps_std_m > 0, "gps_std_m", "must be > 0");
+  require(ultrasonic_std_m > 0, "ultrasonic_std_m", "must be > 0");
+  require(vision_std_m > 0, "vision_std_m", "must be > 0");
+  require(accel_noise_mps2 > 0, "accel_noise_mps2", "must be > 0");
+  require(accel_bias_rw_mps3 >= 0, "accel_bias_rw_mps3", "must be >= 0");
+  require(baro_bias_rw_mps >= 0, "baro_bias_rw_mps", "must be >= 0");
+  require(surface_rw_mps >= 0, "surface_rw_mps", "must be >= 0");
+  require(platform_rw_mps >= 0, "platform_rw_mps", "must be >= 0");
+  require(initial_baro_bias_std_m > 0, "initial_baro_bias_std_m", "must be > 0");
+  require(initial_accel_bias_std_mps2 > 0, "initial_accel_bias_std_mps2", "must be > 0");
+  require(platform_height_std_m > 0, "platform_height_std_m", "must be > 0");
+  require(switch_height_m > 0, "switch_height_m", "must be > 0");
+  require(switch_hysteresis_m >= 0 && switch_hysteresis_m < switch_height_m,
+          "switch_hysteresis_m", "must be in [0, switch_height_m)");
+  require(ultrasonic_min_m >= 0, "ultrasonic_min_m", "must be >= 0");
+  require(ultrasonic_max_m > ultrasonic_min_m, "ultrasonic_max_m", "must be > ultrasonic_min_m");
+  require(gate_sigma > 0, "gate_sigma", "must be > 0");
+  require(gate_factor_n >= 0 && gate_factor_n <= 1, "gate_factor_n", "must be in [0, 1] (eq. 27)");
+  require(step_min_m > 0, "step_min_m", "must be > 0");
+  require(step_count >= 1 && step_count <= 8, "step_count", "must be in 1..8");
+  require(step_agree_m > 0, "step_agree_m", "must be > 0");
+  require(max_sample_age_s > 0, "max_sample_age_ms", "must be > 0");
+}
+
+// ------------------------------------------------------------------------------ filter
+AltitudeFusion::AltitudeFusion(const AltitudeFusionParams& p) : p_(p) {
+  p_.validate();
+  reset(0.0, 0.0, 0.0);
+}
+
+void AltitudeFusion::reset(double t_s, double z_W_m, double surface_W_m, double vz_W_mps) {
+  // Tolerances of a start on the ground: height of B known to a few cm, at rest.
+  constexpr double kInitialZStd_m = 0.05;
+  constexpr double kInitialVzStd_mps = 0.1;
+  constexpr double kInitialSurfaceStd_m = 0.05;
+  t_s_ = t_s;
+  x_.setZero();
+  x_[kZ] = z_W_m;
+  x_[kVz] = vz_W_mps;
+  x_[kSurface] = surface_W_m;
+  x_[kPlane] = p_.platform_height_m;
+  P_.setZero();
+  P_(kZ, kZ) = kInitialZStd_m * kInitialZStd_m;
+  P_(kVz, kVz) = kInitialVzStd_mps * kInitialVzStd_mps;
+  P_(kBaroBias, kBaroBias) = p_.initial_baro_bias_std_m * p_.initial_baro_bias_std_m;
+  P_(kAccelBias, kAccelBias) = p_.initial_accel_bias_std_mps2 * p_.initial_accel_bias_std_mps2;
+  P_(kSurface, kSurface) = kInitialSurfaceStd_m * kInitialSurfaceStd_m;
+  P_(kPlane, kPlane) = p_.platform_height_std_m * p_.platform_height_std_m;
+  low_set_ = (z_W_m - surface_W_m) < p_.switch_height_m;
+  step_n_ = 0;
+}
+
+void AltitudeFusion::set_attitude(const Eigen::Quaterniond& q_WB) {
+  cos_tilt_ = std::max(0.0, q_WB.toRotationMatrix()(2, 2));
+}
+
+void AltitudeFusion::predict(const ImuSample& imu, const Eigen::Quaterniond& q_WB,
+                             double gravity_mps2) {
+  set_attitude(q_WB);
+  predict(imu.t_s, vertical_accel_W(imu, q_WB, gravity_mps2));
+}
+
+// Eq. 19 and 21 with the IMU-driven model (see the header for why not eq. 13):
+//   x_{k+1|k} = F x_k + G a,   P_{k+1|k} = F P F^T + Q.
+void AltitudeFusion::predict(double t_s, double az_W_mps2) {
+  const double dt = t_s - t_s_;
+  if (!(dt > 0)) return;
+  if (!std::isfinite(az_W_mps2)) throw std::invalid_argument("AltitudeFusion: non-finite accel");
+  Mat F = Mat::Identity();
+  F(kZ, kVz) = dt;
+  F(kZ, kAccelBias) = -0.5 * dt * dt;
+  F(kVz, kAccelBias) = -dt;
+  const double a = az_W_mps2 - x_[kAccelBias];
+  x_[kZ] += x_[kVz] * dt + 0.5 * a * dt * dt;
+  x_[kVz] += a * dt;
+  // Q: white acceleration (density q) into [z, vz]; random walks on the other states.
+  const double q = p_.accel_noise_mps2 * p_.accel_noise_mps2;
+  Mat Q = Mat::Zero();
+  Q(kZ, kZ) = q * dt * dt * dt / 3.0;
+  Q(kZ, kVz) = Q(kVz, kZ) = q * dt * dt / 2.0;
+  Q(kVz, kVz) = q * dt;
+  Q(kBaroBias, kBaroBias) = p_.baro_bias_rw_mps * p_.baro_bias_rw_mps * dt;
+  Q(kAccelBias, kAccelBias) = p_.accel_bias_rw_mps3 * p_.accel_bias_rw_mps3 * dt;
+  Q(kSurface, kSurface) = p_.surface_rw_mps * p_.surface_rw_mps * dt;
+  Q(kPlane, kPlane) = p_.platform_rw_mps * p_.platform_rw_mps * dt;
+  P_ = F * P_ * F.transpose() + Q;
+  t_s_ = t_s;
+  update_set();
+}
+
+// Measurement-set switch at the ultrasonic limit (eq. 15-18), on the estimated height above
+// the surface below, with hysteresis. (The paper switches on the ultrasonic reading itself;
+// out of range that reading is garbage, eq. 12, and may well be < 3 m, so we do not.)
+void AltitudeFusion::update_set() {
+  const double h = x_[kZ] - x_[kSurface];
+  if (low_set_ && h > p_.switch_height_m + p_.switch_hysteresis_m) low_set_ = false;
+  if (!low_set_ && h < p_.switch_height_m - p_.switch_hysteresis_m) low_set_ = true;
+}
+
+bool AltitudeFusion::age_ok(double t_sample_s) const {
+  const double age = t_s_ - t_sample_s;
+  constexpr double kFutureSlack_s = 1e-6;  // stamps equal to "now" up to rounding
+  return age >= -kFutureSlack_s && age <= p_.max_sample_age_s;
+}
+
+AltitudeFusion::Row AltitudeFusion::row(std::initializer_list<std::pair<int, double>> entries,
+                                        double age_s) const {
+  Row H = Row::Zero();
+  for (const auto& e : entries) H(e.first) += e.second;
+  // The quantity at the sampling time t - age is H x - (dH/dz) vz age (first order).
+  H(kVz) -= H(kZ) * std::max(0.0, age_s);
+  return H;
+}
+
+void AltitudeFusion::residual(const Row& H, double z, double R, double* r, double* S) const {
+  *r = z - H * x_;                              // eq. 25
+  *S = (H * P_ * H.transpose())(0, 0) + R;      // eq. 26
+}
+
+void AltitudeFusion::apply(const Row& H, double r, double R, double gain_scale) {
+  const double S = (H * P_ * H.transpose())(0, 0) + R;
+  const Vec K = gain_scale * P_ * H.transpose() / S;  // eq. 22, scaled as eq. 27
+  x_ += K * r;                                        // eq. 23
+  // Eq. 24 in Joseph form, valid for the sub-optimal gain n K too.
+  const Mat IKH = Mat::Identity() - K * H;
+  P_ = IKH * P_ * IKH.transpose() + K * R * K.transpose();
+  P_ = 0.5 * (P_ + P_.transpose());
+}
+
+AltitudeFusion::Outcome AltitudeFusion::gated_update(const Row& H, double z, double R) {
+  double r, S;
+  residual(H, z, R, &r, &S);
+  // Eq. 27: K* = K if |r| <= 2 sqrt(P~), else n K.
+  const bool gated = std::abs(r) > p_.gate_sigma * std::sqrt(S);
+  apply(H, r, R, gated ? p_.gate_factor_n : 1.0);
+  update_set();
+  return gated ? Outcome::kGated : Outcome::kAccepted;
+}
+
+AltitudeFusion::Outcome AltitudeFusion::update_baro(const BaroSample& s) {
+  if (!age_ok(s.t_s)) return Outcome::kRejectedStale;
+  if (!(s.pressure_pa > 0)) return Outcome::kRejectedRange;
+  // Eq. 15 only: near the surface the downwash corrupts the baro (seed 004 sec. 4.2).
+  if (low_set_) return Outcome::kRejectedSet;
+  const double h_q = isa_altitude_m(s.pressure_pa) - p_.baro_origin_msl_m;  // eq. 8
+  return gated_update(row({{kZ, 1.0}, {kBaroBias, 1.0}}, t_s_ - s.t_s), h_q,
+                      p_.baro_std_m * p_.baro_std_m);
+}
+
+AltitudeFusion::Outcome AltitudeFusion::update_gps(const GpsSample& s) {
+  if (!age_ok(s.t_s)) return Outcome::kRejectedStale;
+  if (!s.valid || !s.p_W_m.allFinite()) return Outcome::kRejectedRange;
+  return gated_update(row({{kZ, 1.0}}, t_s_ - s.t_s), s.p_W_m.z(), p_.gps_std_m * p_.gps_std_m);
+}
+
+AltitudeFusion::Outcome AltitudeFusion::update_vision(double t_s, double h_plane_m,
+                                                      double std_m) {
+  if (!age_ok(t_s)) return Outcome::kRejectedStale;
+  if (!std::isfinite(h_plane_m) || h_plane_m <= 0) return Outcome::kRejectedRange;
+  const double sd = std_m > 0 ? std_m : p_.vision_std_m;
+  return gated_update(row({{kZ, 1.0}, {kPlane, -1.0}}, t_s_ - t_s), h_plane_m, sd * sd);
+}
+
+void AltitudeFusion::rereference_surface(double h_mean_m, double var_m2) {
+  // New surface s' = z - h: Cov(s', x_j) = Cov(z, x_j), Var(s') = P_zz + var(h).
+  x_[kSurface] = x_[kZ] - h_mean_m;
+  P_.row(kSurface) = P_.row(kZ);
+  P_.col(kSurface) = P_.col(kZ);
+  P_(kSurface, kSurface) = P_(kZ, kZ) + var_m2;
+}
+
+AltitudeFusion::Outcome AltitudeFusion::update_ultrasonic(const UltrasonicSample& s) {
+  if (!age_ok(s.t_s)) return Outcome::kRejectedStale;
+  if (!low_set_) return Outcome::kRejectedSet;  // eq. 17 set only
+  // Eq. 12: outside the valid range the reading is unbounded garbage.
+  if (!std::isfinite(s.range_m) || s.range_m < p_.ultrasonic_min_m ||
+      s.range_m > p_.ultrasonic_max_m) {
+    return Outcome::kRejectedRange;
+  }
+  const double h_c = s.range_m * cos_tilt_;  // slant range to vertical height
+  const double R = p_.ultrasonic_std_m * p_.ultrasonic_std_m;
+  const Row H = row({{kZ, 1.0}, {kSurface, -1.0}}, t_s_ - s.t_s);
+  double r, S;
+  residual(H, h_c, R, &r, &S);
+  if (std::abs(r) <= p_.gate_sigma * std::sqrt(S)) {
+    step_n_ = 0;
+    apply(H, r, R, 1.0);
+    update_set();
+    return Outcome::kAccepted;
+  }
+  if (std::abs(r) < p_.step_min_m) {
+    step_n_ = 0;
+    apply(H, r, R, p_.gate_factor_n);  // eq. 27
+    update_set();
+    return Outcome::kGated;
+  }
+  // Large residual: a surface step (platform edge) or garbage. Collect the height above the
+  // surface it implies (h_c, compensated to now by the predicted motion) and look for
+  // step_count consecutive values that agree.
+  const double h_now = h_c + x_[kVz] * std::max(0.0, t_s_ - s.t_s);
+  if (step_n_ > 0 && std::abs(h_now - step_buf_[step_n_ - 1]) > p_.step_agree_m) step_n_ = 0;
+  step_buf_[step_n_++] = h_now;
+  if (step_n_ < p_.step_count) return Outcome::kStepPending;
+  double mean = 0.0;
+  for (int i = 0; i < step_n_; ++i) mean += step_buf_[i];
+  mean /= step_n_;
+  double spread2 = 0.0;
+  for (int i = 0; i < step_n_; ++i) spread2 += (step_buf_[i] - mean) * (step_buf_[i] - mean);
+  spread2 /= step_n_;
+  rereference_surface(mean, R / step_n_ + spread2);
+  step_n_ = 0;
+  update_set();
+  return Outcome::kSurfaceStep;
+}
+
+AltitudeEstimate AltitudeFusion::estimate() const {
+  AltitudeEstimate e;
+  e.t_s = t_s_;
+  e.valid = true;
+  e.z_W_m = x_[kZ];
+  e.vz_W_mps = x_[kVz];
+  e.h_surface_m = x_[kZ] - x_[kSurface];
+  e.baro_bias_m = x_[kBaroBias];
+  e.var_m2 = P_(kZ, kZ);
+  return e;
+}
+
+}  // namespace lander

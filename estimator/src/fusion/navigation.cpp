@@ -1,0 +1,152 @@
+#include "lander/estimator/navigation.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace lander {
+
+void NavigationParams::validate() const {
+  require(gravity_mps2 > 0, "gravity_mps2", "must be > 0");
+  require(mahony_kp >= 0, "mahony_kp", "must be >= 0");
+  require(mahony_ki >= 0, "mahony_ki", "must be >= 0");
+  require(accel_gate_frac > 0 && accel_gate_frac < 1, "accel_gate_frac", "must be in (0, 1)");
+  require(gyro_bias_limit_radps > 0, "gyro_bias_limit_radps", "must be > 0");
+  require(std::isfinite(initial_yaw_rad), "initial_yaw_deg", "must be finite");
+  require(accel_noise_mps2 > 0, "accel_noise_mps2", "must be > 0");
+  require(accel_bias_rw_mps3 >= 0, "accel_bias_rw_mps3", "must be >= 0");
+  require(initial_accel_bias_std_mps2 > 0, "initial_accel_bias_std_mps2", "must be > 0");
+  require(gps_horizontal_std_m > 0, "gps_horizontal_std_m", "must be > 0");
+  require(gps_vertical_std_m > 0, "gps_vertical_std_m", "must be > 0");
+  require(gps_velocity_std_mps > 0, "gps_velocity_std_mps", "must be > 0");
+  require(gate_sigma > 0, "gate_sigma", "must be > 0");
+  require(gate_factor_n >= 0 && gate_factor_n <= 1, "gate_factor_n", "must be in [0, 1]");
+  require(max_sample_age_s > 0, "max_sample_age_ms", "must be > 0");
+}
+
+Navigation::Navigation(const NavigationParams& p) : p_(p) {
+  p_.validate();
+  for (auto& P : P_) P.setZero();
+}
+
+void Navigation::add_imu(const ImuSample& imu) {
+  const Eigen::Vector3d f = imu.accel_B_mps2;
+  if (!att_init_) {
+    // Roll and pitch from gravity at rest: f_B = R_WB^T g e_z.
+    const double roll = std::atan2(f.y(), f.z());
+    const double pitch = std::atan2(-f.x(), std::hypot(f.y(), f.z()));
+    q_WB_ = Eigen::AngleAxisd(p_.initial_yaw_rad, Eigen::Vector3d::UnitZ()) *
+            Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+            Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX());
+    t_s_ = imu.t_s;
+    att_init_ = true;
+    omega_B_ = imu.gyro_B_radps;
+    return;
+  }
+  const double dt = imu.t_s - t_s_;
+  if (!(dt > 0)) return;
+  t_s_ = imu.t_s;
+
+  // --- Mahony explicit complementary filter.
+  Eigen::Vector3d w = imu.gyro_B_radps - b_g_;
+  omega_B_ = w;
+  const double fn = f.norm();
+  if (std::abs(fn - p_.gravity_mps2) < p_.accel_gate_frac * p_.gravity_mps2) {
+    const Eigen::Vector3d v_hat = q_WB_.conjugate() * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d e = (f / fn).cross(v_hat);
+    w += p_.mahony_kp * e;
+    b_g_ -= p_.mahony_ki * e * dt;
+    b_g_ = b_g_.cwiseMax(-p_.gyro_bias_limit_radps).cwiseMin(p_.gyro_bias_limit_radps);
+  }
+  const double angle = w.norm() * dt;
+  if (angle > 0) q_WB_ = q_WB_ * Eigen::Quaterniond(Eigen::AngleAxisd(angle, w.normalized()));
+  q_WB_.normalize();
+
+  // --- Per-axis [p, v, b] prediction with the accelerometer in W.
+  const Eigen::Vector3d a_meas_W = q_WB_ * f - Eigen::Vector3d(0, 0, p_.gravity_mps2);
+  a_W_ = a_meas_W - b_a_;
+  if (!pos_init_) return;
+  Eigen::Matrix3d F = Eigen::Matrix3d::Identity();
+  F(0, 1) = dt;
+  F(0, 2) = -0.5 * dt * dt;
+  F(1, 2) = -dt;
+  const double q = p_.accel_noise_mps2 * p_.accel_noise_mps2;
+  Eigen::Matrix3d Q = Eigen::Matrix3d::Zero();
+  Q(0, 0) = q * dt * dt * dt / 3.0;
+  Q(0, 1) = Q(1, 0) = q * dt * dt / 2.0;
+  Q(1, 1) = q * dt;
+  Q(2, 2) = p_.accel_bias_rw_mps3 * p_.accel_bias_rw_mps3 * dt;
+  for (int i = 0; i < 3; ++i) {
+    pos_[i] += vel_[i] * dt + 0.5 * a_W_[i] * dt * dt;
+    vel_[i] += a_W_[i] * dt;
+    P_[i] = F * P_[i] * F.transpose() + Q;
+  }
+}
+
+bool Navigation::add_gps(const GpsSample& gps) {
+  if (!att_init_ || !gps.valid || !gps.p_W_m.allFinite() || !gps.v_W_mps.allFinite()) {
+    return false;
+  }
+  const double age = t_s_ - gps.t_s;
+  if (age > p_.max_sample_age_s || age < -1e-6) return false;
+  const double sd_p[3] = {p_.gps_horizontal_std_m, p_.gps_horizontal_std_m,
+                          p_.gps_vertical_std_m};
+  if (!pos_init_) {
+    pos_ = gps.p_W_m + gps.v_W_mps * std::max(0.0, age);
+    vel_ = gps.v_W_mps;
+    b_a_.setZero();
+    for (int i = 0; i < 3; ++i) {
+      P_[i] = Eigen::Vector3d(sd_p[i] * sd_p[i], p_.gps_velocity_std_mps * p_.gps_velocity_std_mps,
+                              p_.initial_accel_bias_std_mps2 * p_.initial_accel_bias_std_mps2)
+                  .asDiagonal();
+    }
+    pos_init_ = true;
+    return true;
+  }
+  const double a = std::max(0.0, age);
+  for (int i = 0; i < 3; ++i) {
+    Eigen::Vector3d x(pos_[i], vel_[i], b_a_[i]);
+    // Position then velocity, each a gated scalar update (seed 004 eq. 27). The value at the
+    // sampling time is H x with H = [1, -age, 0] for the position.
+    // Velocity: v(t - age) = v - a_W age, with a_W the last bias-corrected acceleration
+    // (its dependence on b is neglected).
+    const Eigen::RowVector3d Hs[2] = {Eigen::RowVector3d(1.0, -a, 0.0),
+                                      Eigen::RowVector3d(0.0, 1.0, 0.0)};
+    const double zs[2] = {gps.p_W_m[i], gps.v_W_mps[i] + a_W_[i] * a};
+    const double Rs[2] = {sd_p[i] * sd_p[i], p_.gps_velocity_std_mps * p_.gps_velocity_std_mps};
+    for (int k = 0; k < 2; ++k) {
+      const Eigen::RowVector3d& H = Hs[k];
+      const double r = zs[k] - H * x;
+      const double S = (H * P_[i] * H.transpose())(0, 0) + Rs[k];
+      const double scale = std::abs(r) > p_.gate_sigma * std::sqrt(S) ? p_.gate_factor_n : 1.0;
+      const Eigen::Vector3d K = scale * P_[i] * H.transpose() / S;
+      x += K * r;
+      const Eigen::Matrix3d IKH = Eigen::Matrix3d::Identity() - K * H;
+      P_[i] = IKH * P_[i] * IKH.transpose() + K * Rs[k] * K.transpose();
+    }
+    pos_[i] = x[0];
+    vel_[i] = x[1];
+    b_a_[i] = x[2];
+  }
+  return true;
+}
+
+NavState Navigation::state() const {
+  NavState s;
+  s.t_s = t_s_;
+  s.valid = att_init_ && pos_init_;
+  s.q_WB = q_WB_;
+  s.p_W_m = pos_;
+  s.v_W_mps = vel_;
+  s.omega_B_radps = omega_B_;
+  return s;
+}
+
+NavState with_altitude(NavState nav, const AltitudeEstimate& alt) {
+  if (alt.valid) {
+    nav.p_W_m.z() = alt.z_W_m;
+    nav.v_W_mps.z() = alt.vz_W_mps;
+  }
+  return nav;
+}
+
+}  // namespace lander

@@ -1,0 +1,165 @@
+#include "lander/sim/sensors.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "lander/estimator/altitude_fusion.h"
+
+namespace lander::sim {
+
+namespace {
+// Re-throws a sub-struct's ConfigError with the sensor's name in front.
+template <class P>
+void validate_named(const P& p, const char* name) {
+  try {
+    p.validate();
+  } catch (const ConfigError& e) {
+    throw ConfigError(std::string(name) + ": " + e.what());
+  }
+}
+
+// Seconds since the previous sample (0 for the first one), for random walks.
+double since(double& last_t_s, double t_s) {
+  const double dt = last_t_s < 0 ? 0.0 : std::max(0.0, t_s - last_t_s);
+  last_t_s = t_s;
+  return dt;
+}
+}  // namespace
+
+void SensorSuiteParams::validate() const {
+  validate_named(imu, "imu");
+  validate_named(baro, "baro");
+  validate_named(gps, "gps");
+  validate_named(ultrasonic, "ultrasonic");
+}
+
+// ---------------------------------------------------------------------------------- IMU
+ImuModel::ImuModel(const ImuParams& p, std::uint64_t seed)
+    : p_(p), rng_(seed), clock_((p.validate(), p.rate_hz)) {
+  for (int i = 0; i < 3; ++i) b_g_[i] = p_.gyro_bias_init_std_radps * n_(rng_);
+  for (int i = 0; i < 3; ++i) b_a_[i] = p_.accel_bias_init_std_mps2 * n_(rng_);
+}
+
+ImuSample ImuModel::sample(const VehicleTruth& truth) {
+  clock_.advance(truth.t_s);
+  // Bias random walk over the time since the last sample.
+  const double sq = std::sqrt(since(last_t_s_, truth.t_s));
+  for (int i = 0; i < 3; ++i) b_g_[i] += p_.gyro_bias_rw_radps_per_sqrts * sq * n_(rng_);
+  for (int i = 0; i < 3; ++i) b_a_[i] += p_.accel_bias_rw_mps2_per_sqrts * sq * n_(rng_);
+  ImuSample s;
+  s.t_s = truth.t_s;
+  // Specific force: f_B = R_WB^T (a_W - g_W), g_W = (0, 0, -g).
+  const Eigen::Matrix3d R_WB = truth.X_WB.linear();
+  const Eigen::Vector3d f_B =
+      R_WB.transpose() * (truth.a_W_mps2 + Eigen::Vector3d(0, 0, p_.gravity_mps2));
+  for (int i = 0; i < 3; ++i) {
+    s.gyro_B_radps[i] = truth.omega_B_radps[i] + b_g_[i] + p_.gyro_noise_std_radps * n_(rng_);
+    s.accel_B_mps2[i] = f_B[i] + b_a_[i] + p_.accel_noise_std_mps2 * n_(rng_);
+  }
+  return s;
+}
+
+// ------------------------------------------------------------------------------ Barometer
+BaroModel::BaroModel(const BaroParams& p, std::uint64_t seed)
+    : p_(p), rng_(seed), clock_((p.validate(), p.rate_hz)) {
+  // eps_b: a random constant per run (seed 004 eq. 9).
+  bias_m_ = p_.bias_mean_m + p_.bias_std_m * n_(rng_);
+}
+
+double BaroModel::downwash_error_m(double h_surface_m, double thrust_fraction) const {
+  if (!std::isfinite(h_surface_m)) return 0.0;
+  const double h = std::max(0.0, h_surface_m);
+  const double load = std::max(0.0, thrust_fraction) / p_.hover_thrust_fraction;
+  return p_.downwash_error_m * load * std::exp(-h / p_.downwash_decay_m);
+}
+
+BaroSample BaroModel::sample(const VehicleTruth& truth) {
+  clock_.advance(truth.t_s);
+  const double dt = since(last_t_s_, truth.t_s);
+  drift_m_ += p_.drift_rw_m_per_sqrts * std::sqrt(dt) * n_(rng_);
+  // h_q = h_0 + eps_b + w_q (eq. 9) + drift + downwash error.
+  last_error_m_ = bias_m_ + drift_m_ + downwash_error_m(truth.h_surface_m, truth.thrust_fraction) +
+                  p_.noise_std_m * n_(rng_);
+  const double h_msl = p_.origin_msl_m + truth.X_WB.translation().z() + last_error_m_;
+  BaroSample s;
+  s.t_s = truth.t_s;
+  s.pressure_pa = isa_pressure_pa(h_msl);  // eq. 8, inverted
+  return s;
+}
+
+// ------------------------------------------------------------------------------------ GPS
+GpsModel::GpsModel(const GpsParams& p, std::uint64_t seed)
+    : p_(p), rng_(seed), clock_((p.validate(), p.rate_hz)) {
+  sigma_W_ = {p_.horizontal_std_m, p_.horizontal_std_m, p_.vertical_std_m};
+  for (int i = 0; i < 3; ++i) err_W_[i] = sigma_W_[i] * n_(rng_);
+}
+
+void GpsModel::inject_offset(double t_start_s, double duration_s,
+                             const Eigen::Vector3d& offset_W_m) {
+  if (!(duration_s >= 0)) throw std::invalid_argument("GpsModel::inject_offset: duration < 0");
+  offsets_.push_back({t_start_s, t_start_s + duration_s, offset_W_m});
+}
+
+GpsSample GpsModel::sample(const VehicleTruth& truth) {
+  clock_.advance(truth.t_s);
+  const double t = truth.t_s;
+  const double dt = since(last_t_s_, t);
+  // Gauss-Markov position error, exact discretisation (stationary std sigma).
+  const double a = std::exp(-dt / p_.correlation_time_s);
+  const double b = std::sqrt(1.0 - a * a);
+  for (int i = 0; i < 3; ++i) err_W_[i] = a * err_W_[i] + b * sigma_W_[i] * n_(rng_);
+  // Poisson-triggered glitches and drop-outs (probability rate * dt per sample).
+  if (t >= glitch_until_s_ && u_(rng_) < p_.glitch_rate_per_s * dt) {
+    glitch_until_s_ = t + p_.glitch_duration_s;
+    for (int i = 0; i < 3; ++i) glitch_W_[i] = p_.glitch_std_m * n_(rng_);
+  }
+  if (t >= dropout_until_s_ && u_(rng_) < p_.dropout_rate_per_s * dt) {
+    dropout_until_s_ = t + p_.dropout_duration_s;
+  }
+  GpsSample s;
+  s.t_s = t;
+  s.valid = t >= dropout_until_s_;
+  s.p_W_m = truth.X_WB.translation() + err_W_;
+  if (t < glitch_until_s_) s.p_W_m += glitch_W_;
+  for (const Offset& o : offsets_) {
+    if (t >= o.t0 && t < o.t1) s.p_W_m += o.d;
+  }
+  for (int i = 0; i < 3; ++i) s.v_W_mps[i] = truth.v_W_mps[i] + p_.velocity_std_mps * n_(rng_);
+  if (!s.valid) {
+    s.p_W_m.setZero();
+    s.v_W_mps.setZero();
+  }
+  return s;
+}
+
+// ----------------------------------------------------------------------------- Ultrasonic
+UltrasonicModel::UltrasonicModel(const UltrasonicParams& p, std::uint64_t seed)
+    : p_(p), rng_(seed), clock_((p.validate(), p.rate_hz)) {}
+
+void UltrasonicModel::inject_garbage(double t_start_s, double duration_s) {
+  if (!(duration_s >= 0)) {
+    throw std::invalid_argument("UltrasonicModel::inject_garbage: duration < 0");
+  }
+  bursts_.push_back({t_start_s, t_start_s + duration_s});
+}
+
+double UltrasonicModel::garbage() {
+  // omega_lc of eq. 12: unbounded. |Cauchy| has no finite mean or variance.
+  return std::abs(p_.garbage_scale_m * cauchy_(rng_));
+}
+
+UltrasonicSample UltrasonicModel::sample(const VehicleTruth& truth) {
+  clock_.advance(truth.t_s);
+  UltrasonicSample s;
+  s.t_s = truth.t_s;
+  const double r = truth.range_m;
+  const bool in_range = std::isfinite(r) && r >= p_.min_range_m && r <= p_.max_range_m;
+  bool burst = false;
+  for (const auto& b : bursts_) burst = burst || (truth.t_s >= b.first && truth.t_s < b.second);
+  const bool glitch = p_.glitch_prob > 0 && u_(rng_) < p_.glitch_prob;
+  last_garbage_ = !in_range || burst || glitch;
+  s.range_m = last_garbage_ ? garbage() : r + p_.noise_std_m * n_(rng_);  // eq. 12
+  return s;
+}
+
+}  // namespace lander::sim
