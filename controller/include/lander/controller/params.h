@@ -1,0 +1,218 @@
+// Controller parameters: nominal vehicle, cascade gains, landing mode machine.
+//
+// Every struct follows the params protocol of lander/estimator/params_io.h: in-class defaults
+// with units, validate() throwing ConfigError naming the field, visit_fields() listing the
+// YAML keys. The vehicle figures are the controller's own nominal copy of the ZD850-class
+// hexarotor of seed 000 (a real flight controller does not read the simulator's model).
+#pragma once
+
+#include <Eigen/Core>
+
+#include "lander/estimator/params_io.h"
+
+namespace lander::ctl {
+
+// Nominal vehicle model used for allocation and feed-forward.
+struct VehicleParams {
+  double mass_kg{4.0};                                    ///< total mass (kg), > 0
+  Eigen::Vector3d inertia_kgm2{0.09, 0.09, 0.16};         ///< diagonal of J in B (kg m^2), > 0
+  double arm_m{0.425};                                    ///< centre to rotor axis (m), > 0
+  double k_thrust{2.05e-5};                               ///< T = kT w^2 (N/(rad/s)^2), > 0
+  double k_torque{3.3e-7};                                ///< Q = kQ w^2 (N m/(rad/s)^2), > 0
+  double w_max_radps{800.0};                              ///< max rotor speed (rad/s)
+  double w_idle_radps{100.0};                             ///< min rotor speed in flight (rad/s)
+  double motor_tau_s{0.05};                               ///< first-order motor lag (s), >= 0
+  double gravity_mps2{9.81};                              ///< gravity (m/s^2), > 0
+  void validate() const;
+};
+
+template <class V>
+void visit_fields(V& v, VehicleParams& p) {
+  v("mass_kg", p.mass_kg);
+  v("inertia_kgm2", p.inertia_kgm2);
+  v("arm_m", p.arm_m);
+  v("k_thrust", p.k_thrust);
+  v("k_torque", p.k_torque);
+  v("w_max_radps", p.w_max_radps);
+  v("w_idle_radps", p.w_idle_radps);
+  v("motor_tau_s", p.motor_tau_s);
+  v("gravity_mps2", p.gravity_mps2);
+}
+
+// Gains and limits of the cascade (seed 003 section 2, Fig. 3): position -> velocity ->
+// attitude -> body rate. Gains are bandwidths (1/s) so they do not depend on mass or inertia:
+// the loops multiply by m and J of VehicleParams.
+struct CascadeParams {
+  double outer_rate_hz{30.0};        ///< position/velocity loop rate (Hz): camera rate
+  double pos_kp_xy{1.0};             ///< horizontal position gain (1/s)
+  double pos_kp_z{1.2};              ///< vertical position gain (1/s)
+  double vel_kp_xy{2.0};             ///< horizontal velocity gain (1/s)
+  double vel_ki_xy{0.5};             ///< horizontal velocity integral gain (1/s^2)
+  double vel_kp_z{3.0};              ///< vertical velocity gain (1/s)
+  double vel_ki_z{1.0};              ///< vertical velocity integral gain (1/s^2)
+  double max_int_accel_mps2{2.0};    ///< anti-windup bound of each integral term (m/s^2)
+  double max_vel_xy_mps{3.0};        ///< horizontal speed limit of the velocity setpoint (m/s)
+  double max_vel_up_mps{2.0};        ///< climb speed limit (m/s)
+  double max_vel_down_mps{1.5};      ///< descent speed limit (m/s)
+  double max_accel_z_mps2{4.0};      ///< |vertical acceleration command| limit (m/s^2)
+  double max_tilt_deg{30.0};         ///< tilt limit of the thrust vector (deg), in (0, 80)
+  double att_kp_rp{6.0};             ///< roll/pitch attitude gain (1/s)
+  double att_kp_yaw{3.0};            ///< yaw attitude gain (1/s)
+  double max_rate_rp_degps{200.0};   ///< roll/pitch rate setpoint limit (deg/s)
+  double max_rate_yaw_degps{90.0};   ///< yaw rate setpoint limit (deg/s)
+  double rate_kp_rp{16.0};           ///< roll/pitch rate gain (1/s)
+  double rate_ki_rp{4.0};            ///< roll/pitch rate integral gain (1/s^2)
+  double rate_kp_yaw{8.0};           ///< yaw rate gain (1/s)
+  double rate_ki_yaw{2.0};           ///< yaw rate integral gain (1/s^2)
+  double max_int_alpha_radps2{5.0};  ///< anti-windup bound of the rate integral (rad/s^2)
+  void validate() const;
+};
+
+template <class V>
+void visit_fields(V& v, CascadeParams& p) {
+  v("outer_rate_hz", p.outer_rate_hz);
+  v("pos_kp_xy", p.pos_kp_xy);
+  v("pos_kp_z", p.pos_kp_z);
+  v("vel_kp_xy", p.vel_kp_xy);
+  v("vel_ki_xy", p.vel_ki_xy);
+  v("vel_kp_z", p.vel_kp_z);
+  v("vel_ki_z", p.vel_ki_z);
+  v("max_int_accel_mps2", p.max_int_accel_mps2);
+  v("max_vel_xy_mps", p.max_vel_xy_mps);
+  v("max_vel_up_mps", p.max_vel_up_mps);
+  v("max_vel_down_mps", p.max_vel_down_mps);
+  v("max_accel_z_mps2", p.max_accel_z_mps2);
+  v("max_tilt_deg", p.max_tilt_deg);
+  v("att_kp_rp", p.att_kp_rp);
+  v("att_kp_yaw", p.att_kp_yaw);
+  v("max_rate_rp_degps", p.max_rate_rp_degps);
+  v("max_rate_yaw_degps", p.max_rate_yaw_degps);
+  v("rate_kp_rp", p.rate_kp_rp);
+  v("rate_ki_rp", p.rate_ki_rp);
+  v("rate_kp_yaw", p.rate_kp_yaw);
+  v("rate_ki_yaw", p.rate_ki_yaw);
+  v("max_int_alpha_radps2", p.max_int_alpha_radps2);
+}
+
+// Platform tracking from vision (seed 000 eq. 24-28).
+struct TrackerParams {
+  int poly_order{4};                    ///< order of the per-axis fit, eq. 25-27 (paper: 4)
+  double fit_window_s{8.0};             ///< observations older than this are not fitted (s)
+  double max_poly_extrapolation_s{1.0}; ///< beyond this horizon the prediction continues
+                                        ///< linearly (a quartic diverges far out) (s)
+  double velocity_window_s{1.0};        ///< window of the linear velocity fit (s)
+  double platform_max_speed_mps{2.0};   ///< plausibility bound of the platform speed (m/s)
+  double history_s{10.0};               ///< how long observations are kept (s)
+  double nav_history_s{1.0};            ///< nav-state buffer for latency (s)
+  void validate() const;
+};
+
+template <class V>
+void visit_fields(V& v, TrackerParams& p) {
+  v("poly_order", p.poly_order);
+  v("fit_window_s", p.fit_window_s);
+  v("max_poly_extrapolation_s", p.max_poly_extrapolation_s);
+  v("velocity_window_s", p.velocity_window_s);
+  v("platform_max_speed_mps", p.platform_max_speed_mps);
+  v("history_s", p.history_s);
+  v("nav_history_s", p.nav_history_s);
+}
+
+// Landing mode machine (seed 000 section 3) and the safety behaviour the paper leaves out.
+struct LandingParams {
+  // observe -> approach (seed 000 section 3.2)
+  int observe_frames{80};                 ///< keyframes before approach (paper: 80)
+  double approach_epsilon_m{1.5};         ///< height above the platform at t_d, eq. 28 (m)
+  double approach_speed_mps{1.0};         ///< mean speed that sets t_d (m/s), > 0
+  double approach_min_duration_s{3.0};    ///< lower bound of t_d - t_0 (s)
+  double approach_max_duration_s{15.0};   ///< upper bound of t_d - t_0 (s)
+  double approach_switch_error_m{0.05};   ///< |Diff| at t >= t_d to enter recovery (paper 5 cm)
+  double approach_settle_timeout_s{2.0};  ///< after t_d: enter recovery anyway if in view (s)
+  // recovery: visual servo and controlled descent (seed 000 section 3.3)
+  double descent_rate_mps{0.5};           ///< descent rate high above the platform (m/s)
+  double descent_rate_near_mps{0.2};      ///< descent rate below near_height_m (m/s)
+  double near_height_m{1.0};              ///< gear height above the top where it slows (m)
+  double descent_gate_m{0.25};            ///< descend only while |horizontal error| < this (m)
+  double descent_gate_near_m{0.10};       ///< the same gate below near_height_m (m)
+  double final_hover_gap_m{0.03};         ///< lowest gear clearance before the cut (m)
+  // touchdown (seed 000 section 3.3: < 5 cm and steady platform)
+  double gear_height_m{0.20};             ///< CoM height above the surface when landed (m)
+  double cut_height_m{0.06};              ///< cut when gear clearance is below this (m)
+  double touchdown_error_m{0.05};         ///< cut only when |horizontal error| < this (m)
+  double max_touchdown_rel_speed_mps{0.3};///< cut only when |relative velocity| < this (m/s)
+  double steady_window_s{0.5};            ///< window of the platform-steadiness test (s)
+  double steady_tilt_deg{3.0};            ///< max spread of the platform normal in it (deg)
+  double max_platform_tilt_deg{10.0};     ///< max platform tilt from vertical (deg)
+  double contact_min_time_s{0.15};        ///< after the cut, wait for rotor spin-down (s)
+  double contact_accel_frac{0.6};         ///< contact: specific force z > this * g
+  double contact_confirm_s{0.05};         ///< ... held for this long (s)
+  double contact_timeout_s{2.0};          ///< no contact after the cut -> go-around (s)
+  // loss, search, go-around (not in the paper)
+  double loss_timeout_s{1.0};             ///< no detection this long = target lost (s)
+  double recovery_loss_timeout_s{0.5};    ///< the same in recovery (s)
+  int reacquire_frames{3};                ///< consecutive keyframes to re-acquire
+  double go_around_low_height_m{3.0};     ///< lost below this height above the top -> go-around
+  double go_around_error_m{0.6};          ///< horizontal error in recovery -> go-around (m)
+  double go_around_height_m{6.0};         ///< climb to this height above the top (m)
+  double search_min_height_m{2.0};        ///< search/hold at least this high above ground (m)
+  double search_yaw_rate_degps{20.0};     ///< heading sweep while searching, so the wide image
+                                          ///< axis scans around the vehicle (deg/s), 0 = off
+  double observe_follow_max_speed_mps{1.0};///< horizontal speed following in observe (m/s)
+  void validate() const;
+};
+
+template <class V>
+void visit_fields(V& v, LandingParams& p) {
+  v("observe_frames", p.observe_frames);
+  v("approach_epsilon_m", p.approach_epsilon_m);
+  v("approach_speed_mps", p.approach_speed_mps);
+  v("approach_min_duration_s", p.approach_min_duration_s);
+  v("approach_max_duration_s", p.approach_max_duration_s);
+  v("approach_switch_error_m", p.approach_switch_error_m);
+  v("approach_settle_timeout_s", p.approach_settle_timeout_s);
+  v("descent_rate_mps", p.descent_rate_mps);
+  v("descent_rate_near_mps", p.descent_rate_near_mps);
+  v("near_height_m", p.near_height_m);
+  v("descent_gate_m", p.descent_gate_m);
+  v("descent_gate_near_m", p.descent_gate_near_m);
+  v("final_hover_gap_m", p.final_hover_gap_m);
+  v("gear_height_m", p.gear_height_m);
+  v("cut_height_m", p.cut_height_m);
+  v("touchdown_error_m", p.touchdown_error_m);
+  v("max_touchdown_rel_speed_mps", p.max_touchdown_rel_speed_mps);
+  v("steady_window_s", p.steady_window_s);
+  v("steady_tilt_deg", p.steady_tilt_deg);
+  v("max_platform_tilt_deg", p.max_platform_tilt_deg);
+  v("contact_min_time_s", p.contact_min_time_s);
+  v("contact_accel_frac", p.contact_accel_frac);
+  v("contact_confirm_s", p.contact_confirm_s);
+  v("contact_timeout_s", p.contact_timeout_s);
+  v("loss_timeout_s", p.loss_timeout_s);
+  v("recovery_loss_timeout_s", p.recovery_loss_timeout_s);
+  v("reacquire_frames", p.reacquire_frames);
+  v("go_around_low_height_m", p.go_around_low_height_m);
+  v("go_around_error_m", p.go_around_error_m);
+  v("go_around_height_m", p.go_around_height_m);
+  v("search_min_height_m", p.search_min_height_m);
+  v("search_yaw_rate_degps", p.search_yaw_rate_degps);
+  v("observe_follow_max_speed_mps", p.observe_follow_max_speed_mps);
+}
+
+// Everything the controller reads, one YAML mapping with four sections.
+struct ControllerParams {
+  VehicleParams vehicle;
+  CascadeParams cascade;
+  TrackerParams tracker;
+  LandingParams landing;
+  void validate() const;
+};
+
+template <class V>
+void visit_fields(V& v, ControllerParams& p) {
+  v.nested("vehicle", p.vehicle);
+  v.nested("cascade", p.cascade);
+  v.nested("tracker", p.tracker);
+  v.nested("landing", p.landing);
+}
+
+}  // namespace lander::ctl

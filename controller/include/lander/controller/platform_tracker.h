@@ -1,0 +1,88 @@
+// The platform in W from vision (seed 000 section 3.1-3.2): each keyframe's X_CP becomes a
+// position in W through eq. 24 with the navigation state at the frame's time; the history
+// feeds the per-axis polynomial fit (eq. 25-27), the prediction (eq. 28), a velocity estimate
+// for the visual servo and the platform-steadiness test of the touchdown.
+#pragma once
+
+#include <deque>
+#include <string>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "lander/controller/params.h"
+#include "lander/controller/trajectory.h"
+#include "lander/estimator/state.h"
+#include "lander/estimator/types.h"
+
+namespace lander::ctl {
+
+// One platform fix in W (from one keyframe).
+struct PlatformFix {
+  double t_s{0.0};                                      ///< mid-exposure time (s)
+  Eigen::Vector3d p_W_m{Eigen::Vector3d::Zero()};       ///< platform origin in W (m), eq. 24
+  Eigen::Vector3d n_W{Eigen::Vector3d::UnitZ()};        ///< platform +z in W (unit)
+  Eigen::Vector3d p_BP_W_m{Eigen::Vector3d::Zero()};    ///< platform minus vehicle, in W (m)
+};
+
+class PlatformTracker {
+ public:
+  PlatformTracker(const TrackerParams& params, const CameraMount& mount);
+
+  // Stores the navigation state for latency compensation (call every inner step).
+  void add_nav(const NavState& nav);
+
+  // Navigation state at t_s: linear/slerp interpolation in the buffer (clamped to its ends).
+  // Throws std::logic_error if no valid nav state was added yet.
+  NavState nav_at(double t_s) const;
+
+  // Processes one vision result. A detected keyframe becomes a fix (returns true); a detected
+  // non-keyframe (blurred) counts as "in view" only; no detection resets the keyframe streak.
+  bool add_observation(const PlatformObservation& obs);
+
+  // Eq. 24 extended with the camera lever arm: p_W = R_WB (R_BC p_CP + p_BC) + p_WB.
+  static PlatformFix fix_from(const PlatformObservation& obs, const NavState& nav_at_obs,
+                              const Eigen::Isometry3d& X_BC);
+
+  void clear();  ///< forgets all fixes (re-acquisition starts a fresh history)
+
+  int num_fixes() const { return static_cast<int>(fixes_.size()); }
+  int keyframe_streak() const { return streak_; }
+  bool has_fix() const { return !fixes_.empty(); }
+  const PlatformFix& latest() const;  ///< throws std::logic_error if none
+  const std::deque<PlatformFix>& fixes() const { return fixes_; }
+  double last_detection_t() const { return last_detection_t_; }  ///< -inf if never
+
+  // Per-axis polynomial of eq. 25-27 over the fit window (refitted lazily on new fixes).
+  // Order is TrackerParams::poly_order, lowered when there are too few fixes.
+  const PolynomialFit3& fit() const;
+
+  // Predicted platform position at t_s (eq. 28 without epsilon): the polynomial up to
+  // max_poly_extrapolation_s past the last fix, continued linearly beyond, and its distance
+  // from the last fix bounded by platform_max_speed_mps * horizon.
+  Eigen::Vector3d predict(double t_s) const;
+
+  // Platform velocity in W (m/s): linear least squares over velocity_window_s, speed-bounded.
+  Eigen::Vector3d velocity() const;
+
+  // The platform now: last fix moved on by velocity() (latency compensation).
+  Eigen::Vector3d position_now(double t_s) const;
+
+  // Steady platform (seed 000 section 3.3): over the last window_s, every normal within
+  // spread_deg of their mean and the mean within max_tilt_deg of vertical. `why` says which
+  // test failed.
+  bool steady(double window_s, double spread_deg, double max_tilt_deg,
+              std::string* why = nullptr) const;
+
+ private:
+  TrackerParams p_;
+  Eigen::Isometry3d X_BC_;
+  std::deque<NavState> nav_;
+  std::deque<PlatformFix> fixes_;
+  int streak_{0};
+  double last_detection_t_;
+  mutable bool fit_dirty_{true};
+  mutable PolynomialFit3 fit_;
+};
+
+}  // namespace lander::ctl

@@ -1,0 +1,388 @@
+// Mode machine of seed 000 section 3 with search / re-acquisition / go-around (see header).
+#include "lander/controller/landing_controller.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+namespace lander::ctl {
+namespace {
+
+// printf-style formatting for transition reasons.
+template <class... Args>
+std::string fmt(const char* f, Args... args) {
+  char buf[256];
+  std::snprintf(buf, sizeof(buf), f, args...);
+  return buf;
+}
+
+double yaw_of(const Eigen::Quaterniond& q_WB) {
+  const Eigen::Vector3d x = q_WB * Eigen::Vector3d::UnitX();
+  return std::atan2(x.y(), x.x());
+}
+
+double horizontal(const Eigen::Vector3d& v) { return v.head<2>().norm(); }
+
+// Band around the go-around altitude that counts as reached (m): the position loop settles
+// within a few centimetres; 0.3 m avoids waiting for the last exponential tail.
+constexpr double kGoAroundReachedBand_m = 0.3;
+// Below this horizontal distance the bearing to the platform is dominated by vision noise and
+// the platform is near the image centre anyway: the heading is no longer aligned (m).
+constexpr double kAlignMinDistance_m = 1.5;
+
+}  // namespace
+
+const char* to_string(Mode m) {
+  switch (m) {
+    case Mode::kSearch: return "search";
+    case Mode::kObserve: return "observe";
+    case Mode::kApproach: return "approach";
+    case Mode::kRecovery: return "recovery";
+    case Mode::kTouchdown: return "touchdown";
+    case Mode::kLanded: return "landed";
+    case Mode::kGoAround: return "go_around";
+  }
+  return "unknown";
+}
+
+LandingController::LandingController(const ControllerParams& params, const CameraMount& mount)
+    : p_(params), cascade_(params.vehicle, params.cascade), tracker_(params.tracker, mount) {
+  p_.validate();
+  mount.validate();
+}
+
+void LandingController::on_vision(const PlatformObservation& obs) { pending_.push_back(obs); }
+
+void LandingController::on_altitude(const AltitudeEstimate& alt) {
+  if (alt.valid) altitude_ = alt;
+}
+
+bool LandingController::in_view(double t_s, double timeout_s) const {
+  return t_s - tracker_.last_detection_t() <= timeout_s;
+}
+
+double LandingController::platform_z() const {
+  return tracker_.has_fix() ? tracker_.latest().p_W_m.z() : 0.0;
+}
+
+Setpoint LandingController::hold(const Eigen::Vector3d& p) const {
+  Setpoint sp;
+  sp.p_W_m = p;
+  sp.yaw_rad = yaw_hold_;
+  return sp;
+}
+
+void LandingController::switch_to(double t_s, Mode to, const std::string& reason,
+                                  const NavState& nav) {
+  transitions_.push_back({t_s, mode_, to, reason});
+  const LandingParams& L = p_.landing;
+  // Entry actions.
+  switch (to) {
+    case Mode::kSearch: {
+      search_t0_ = t_s;
+      search_yaw0_ = yaw_hold_;
+      tracker_.clear();  // a lost target starts a fresh history when re-acquired
+      hold_p_ = nav.p_W_m;
+      double z_min = L.search_min_height_m;
+      if (altitude_.valid) z_min = nav.p_W_m.z() + (L.search_min_height_m - altitude_.h_surface_m);
+      hold_p_.z() = std::max(hold_p_.z(), z_min);
+      break;
+    }
+    case Mode::kObserve:
+      follow_p_ = nav.p_W_m;
+      hold_p_ = nav.p_W_m;  // observe height: where the target was acquired
+      break;
+    case Mode::kApproach: {
+      // seed 000 eq. 28-29: t_d from the distance at the nominal approach speed.
+      const Eigen::Vector3d eps(0, 0, L.approach_epsilon_m);
+      const Eigen::Vector3d goal_now = tracker_.position_now(t_s) + eps;
+      const double T = std::clamp((goal_now - nav.p_W_m).norm() / L.approach_speed_mps,
+                                  L.approach_min_duration_s, L.approach_max_duration_s);
+      const double td = t_s + T;
+      approach_ = CubicTrajectory(nav.p_W_m, t_s, tracker_.predict(td) + eps, td);
+      diag_.approach_planned = true;
+      diag_.approach_t0_s = t_s;
+      diag_.approach_td_s = td;
+      diag_.replans = 0;
+      break;
+    }
+    case Mode::kRecovery:
+      recovery_z_sp_ = nav.p_W_m.z();
+      break;
+    case Mode::kTouchdown:
+      cut_t_ = t_s;
+      contact_accum_s_ = 0.0;
+      break;
+    case Mode::kLanded:
+      diag_.contact = true;
+      diag_.contact_t_s = t_s;
+      break;
+    case Mode::kGoAround:
+      hold_p_ = nav.p_W_m;
+      hold_p_.z() = std::max(nav.p_W_m.z(), platform_z() + L.go_around_height_m);
+      tracker_.clear();  // the failed attempt's history is not trusted
+      if (mode_ == Mode::kTouchdown) cascade_.reset();  // motors restart from idle
+      break;
+  }
+  mode_ = to;
+}
+
+void LandingController::detect_contact(double t_s, const ImuSample& imu, const NavState& nav) {
+  const LandingParams& L = p_.landing;
+  const double dt = std::max(0.0, t_s - last_inner_t_);
+  const double since_cut = t_s - cut_t_;
+  // After the rotors spun down (free fall reads ~0), a specific force near +g along z_B means
+  // the vehicle rests on something.
+  const double f_z = imu.accel_B_mps2.z();
+  if (since_cut >= L.contact_min_time_s && f_z > L.contact_accel_frac * p_.vehicle.gravity_mps2) {
+    contact_accum_s_ += dt;
+  } else {
+    contact_accum_s_ = 0.0;
+  }
+  if (contact_accum_s_ >= L.contact_confirm_s && since_cut >= L.contact_min_time_s) {
+    switch_to(t_s, Mode::kLanded,
+              fmt("contact: specific force z %.2f m/s^2 for %.3f s, %.2f s after the cut", f_z,
+                  contact_accum_s_, since_cut),
+              nav);
+  } else if (since_cut > L.contact_timeout_s) {
+    switch_to(t_s, Mode::kGoAround, fmt("no contact %.2f s after the motor cut", since_cut), nav);
+  }
+}
+
+Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
+  const LandingParams& L = p_.landing;
+  const double dt = std::clamp(t_s - last_outer_t_, 0.0, 0.2);
+  last_outer_t_ = t_s;
+  diag_.num_fixes = tracker_.num_fixes();
+  diag_.keyframe_streak = tracker_.keyframe_streak();
+  diag_.platform_known = tracker_.has_fix();
+  if (tracker_.has_fix()) {
+    diag_.platform_W_m = tracker_.position_now(t_s);
+    diag_.platform_v_W_mps = tracker_.velocity();
+    diag_.horizontal_error_m = horizontal(diag_.platform_W_m - nav.p_W_m);
+    diag_.gear_clearance_m = nav.p_W_m.z() - diag_.platform_W_m.z() - L.gear_height_m;
+  }
+  const double loss_age = t_s - tracker_.last_detection_t();
+
+  switch (mode_) {
+    case Mode::kSearch: {
+      if (tracker_.keyframe_streak() >= L.reacquire_frames && in_view(t_s, L.loss_timeout_s)) {
+        switch_to(t_s, Mode::kObserve,
+                  fmt("target acquired: %d consecutive keyframes", tracker_.keyframe_streak()),
+                  nav);
+        return run_mode_machine(t_s, nav);
+      }
+      // Heading sweep: the 1280 px image axis is along body y, so turning the vehicle scans
+      // a circle of radius ~h tan(45 deg) instead of the 29 deg half-angle along body x.
+      yaw_hold_ = std::remainder(
+          search_yaw0_ + L.search_yaw_rate_degps * M_PI / 180.0 * (t_s - search_t0_), 2 * M_PI);
+      return hold(hold_p_);
+    }
+
+    case Mode::kObserve: {
+      if (!in_view(t_s, L.loss_timeout_s)) {
+        switch_to(t_s, Mode::kSearch, fmt("target lost for %.2f s while observing", loss_age),
+                  nav);
+        return hold(hold_p_);
+      }
+      if (tracker_.num_fixes() >= L.observe_frames) {
+        switch_to(t_s, Mode::kApproach,
+                  fmt("%d keyframes observed (>= %d)", tracker_.num_fixes(), L.observe_frames),
+                  nav);
+        return run_mode_machine(t_s, nav);
+      }
+      // Follow the platform horizontally at the observe height to keep it centred: the
+      // follow point slews towards the platform at a bounded speed (no setpoint jumps).
+      Setpoint sp = hold(hold_p_);
+      if (tracker_.has_fix()) {
+        const Eigen::Vector3d target = tracker_.position_now(t_s);
+        Eigen::Vector2d d = target.head<2>() - follow_p_.head<2>();
+        const double max_step = L.observe_follow_max_speed_mps * dt;
+        if (d.norm() > max_step) d *= max_step / d.norm();
+        follow_p_.head<2>() += d;
+        sp.p_W_m.head<2>() = follow_p_.head<2>();
+        const Eigen::Vector3d v = tracker_.velocity();
+        sp.v_W_mps.head<2>() = v.head<2>();
+        // Turn the wide image axis (body y) towards the platform while it is off to the side,
+        // so an acquisition near the image corner does not lose it again.
+        const Eigen::Vector2d to_plat = target.head<2>() - nav.p_W_m.head<2>();
+        if (to_plat.norm() > kAlignMinDistance_m) {
+          const double bearing = std::atan2(to_plat.y(), to_plat.x());
+          const double yaw_a = std::remainder(bearing - M_PI / 2, 2 * M_PI);
+          const double yaw_b = std::remainder(bearing + M_PI / 2, 2 * M_PI);
+          const double cur = yaw_of(nav.q_WB);
+          yaw_hold_ = std::abs(std::remainder(yaw_a - cur, 2 * M_PI)) <
+                              std::abs(std::remainder(yaw_b - cur, 2 * M_PI))
+                          ? yaw_a
+                          : yaw_b;
+          sp.yaw_rad = yaw_hold_;
+        }
+      }
+      return sp;
+    }
+
+    case Mode::kApproach: {
+      if (!in_view(t_s, L.loss_timeout_s)) {
+        if (diag_.gear_clearance_m < L.go_around_low_height_m) {
+          switch_to(t_s, Mode::kGoAround,
+                    fmt("target lost for %.2f s during approach at %.2f m above the platform",
+                        loss_age, diag_.gear_clearance_m),
+                    nav);
+        } else {
+          switch_to(t_s, Mode::kSearch,
+                    fmt("target lost for %.2f s during approach", loss_age), nav);
+        }
+        return run_mode_machine(t_s, nav);
+      }
+      // Replan (seed 000 section 3.2): new fixes -> new prediction of P_d at the same t_d.
+      const Eigen::Vector3d eps(0, 0, L.approach_epsilon_m);
+      if (t_s < approach_.td() && tracker_.has_fix() &&
+          tracker_.latest().t_s > diag_.approach_t0_s) {
+        approach_.set_goal(tracker_.predict(approach_.td()) + eps);
+        ++diag_.replans;
+      }
+      diag_.approach_goal_W_m = approach_.goal();
+      diag_.approach_diff_m = horizontal(approach_.goal() - nav.p_W_m);
+      if (t_s >= approach_.td()) {
+        if (diag_.approach_diff_m < L.approach_switch_error_m) {
+          switch_to(t_s, Mode::kRecovery,
+                    fmt("|Diff| = %.3f m < %.3f m at t >= t_d", diag_.approach_diff_m,
+                        L.approach_switch_error_m),
+                    nav);
+          return run_mode_machine(t_s, nav);
+        }
+        if (t_s > approach_.td() + L.approach_settle_timeout_s) {
+          switch_to(t_s, Mode::kRecovery,
+                    fmt("|Diff| = %.3f m still above %.3f m %.1f s after t_d; target in view",
+                        diag_.approach_diff_m, L.approach_switch_error_m,
+                        L.approach_settle_timeout_s),
+                    nav);
+          return run_mode_machine(t_s, nav);
+        }
+      }
+      return approach_.setpoint(t_s, yaw_hold_);
+    }
+
+    case Mode::kRecovery: {
+      if (!in_view(t_s, L.recovery_loss_timeout_s)) {
+        switch_to(t_s, Mode::kGoAround,
+                  fmt("target lost for %.2f s in recovery at %.2f m above the platform",
+                      loss_age, diag_.gear_clearance_m),
+                  nav);
+        return run_mode_machine(t_s, nav);
+      }
+      const double e_xy = diag_.horizontal_error_m;
+      const double h = diag_.gear_clearance_m;
+      if (e_xy > L.go_around_error_m) {
+        switch_to(t_s, Mode::kGoAround,
+                  fmt("horizontal error %.2f m > %.2f m in recovery", e_xy, L.go_around_error_m),
+                  nav);
+        return run_mode_machine(t_s, nav);
+      }
+      // Touchdown test (seed 000 section 3.3): small horizontal error, steady platform, plus
+      // low and slow relative to the platform.
+      const Eigen::Vector3d v_rel = nav.v_W_mps - diag_.platform_v_W_mps;
+      std::string unsteady;
+      if (h < L.cut_height_m && e_xy < L.touchdown_error_m &&
+          v_rel.norm() < L.max_touchdown_rel_speed_mps &&
+          tracker_.steady(L.steady_window_s, L.steady_tilt_deg, L.max_platform_tilt_deg,
+                          &unsteady)) {
+        switch_to(t_s, Mode::kTouchdown,
+                  fmt("cut: horizontal error %.3f m, clearance %.3f m, relative speed %.2f m/s, "
+                      "platform steady",
+                      e_xy, h, v_rel.norm()),
+                  nav);
+        return hold(nav.p_W_m);
+      }
+      // Visual servo: horizontal setpoint on the platform now, its velocity fed forward;
+      // descend at the controlled rate only while the horizontal error is small.
+      const bool near = h < L.near_height_m;
+      const double gate = near ? L.descent_gate_near_m : L.descent_gate_m;
+      const double rate = near ? L.descent_rate_near_mps : L.descent_rate_mps;
+      const double z_floor = diag_.platform_W_m.z() + L.gear_height_m + L.final_hover_gap_m;
+      double vz_ff = 0.0;
+      if (e_xy < gate && recovery_z_sp_ > z_floor) {
+        recovery_z_sp_ -= rate * dt;
+        vz_ff = -rate;
+      }
+      if (recovery_z_sp_ <= z_floor) {
+        recovery_z_sp_ = z_floor;
+        vz_ff = 0.0;
+      }
+      // Never command the setpoint far below the vehicle (limits the descent speed near the
+      // top even after a pause of the descent).
+      recovery_z_sp_ = std::max(recovery_z_sp_, nav.p_W_m.z() - 0.5);
+      Setpoint sp = hold(diag_.platform_W_m);
+      sp.p_W_m.z() = recovery_z_sp_;
+      sp.v_W_mps = Eigen::Vector3d(diag_.platform_v_W_mps.x(), diag_.platform_v_W_mps.y(), vz_ff);
+      return sp;
+    }
+
+    case Mode::kTouchdown:
+    case Mode::kLanded:
+      return hold(nav.p_W_m);
+
+    case Mode::kGoAround: {
+      if (std::abs(nav.p_W_m.z() - hold_p_.z()) < kGoAroundReachedBand_m) {
+        if (tracker_.keyframe_streak() >= L.reacquire_frames && in_view(t_s, L.loss_timeout_s)) {
+          switch_to(t_s, Mode::kObserve, "go-around altitude reached, target in view", nav);
+        } else {
+          switch_to(t_s, Mode::kSearch, "go-around altitude reached, target not in view", nav);
+        }
+        return run_mode_machine(t_s, nav);
+      }
+      return hold(hold_p_);
+    }
+  }
+  return hold(nav.p_W_m);
+}
+
+RotorCommand LandingController::step(double t_s, const NavState& nav, const ImuSample& imu) {
+  RotorCommand cmd;
+  cmd.t_s = t_s;
+  if (nav.valid) {
+    tracker_.add_nav(nav);
+    if (!started_) {
+      started_ = true;
+      yaw_hold_ = yaw_of(nav.q_WB);
+      search_yaw0_ = yaw_hold_;
+      search_t0_ = t_s;
+      hold_p_ = nav.p_W_m;
+      last_outer_t_ = t_s;
+      last_inner_t_ = t_s;
+    }
+  }
+  // Vision results in time order, each with the nav state of its own frame time.
+  if (started_ && !pending_.empty()) {
+    std::sort(pending_.begin(), pending_.end(),
+              [](const PlatformObservation& a, const PlatformObservation& b) {
+                return a.t_s < b.t_s;
+              });
+    for (const PlatformObservation& obs : pending_) tracker_.add_observation(obs);
+    pending_.clear();
+  }
+
+  if (started_ && mode_ == Mode::kTouchdown) detect_contact(t_s, imu, nav);
+
+  if (started_ && nav.valid && cascade_.outer_due(t_s)) {
+    last_sp_ = run_mode_machine(t_s, nav);
+    cascade_.update_outer(t_s, last_sp_, nav);
+    diag_.setpoint = last_sp_;
+  }
+  diag_.mode = mode_;
+  last_inner_t_ = t_s;
+
+  const bool cut = mode_ == Mode::kTouchdown || mode_ == Mode::kLanded;
+  diag_.motors_cut = cut;
+  cmd.motors_cut = cut;
+  if (cut) {
+    cmd.w_radps.fill(0.0);
+    return cmd;
+  }
+  const MixerOutput out = cascade_.update_inner(t_s, nav, imu);
+  cmd.w_radps = out.w_radps;
+  return cmd;
+}
+
+}  // namespace lander::ctl

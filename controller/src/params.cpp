@@ -1,0 +1,127 @@
+// validate() of the controller params: every check names its field.
+#include "lander/controller/params.h"
+
+#include <cmath>
+
+namespace lander::ctl {
+
+void VehicleParams::validate() const {
+  require(mass_kg > 0, "mass_kg", "must be > 0");
+  require(inertia_kgm2.minCoeff() > 0, "inertia_kgm2", "all entries must be > 0");
+  require(arm_m > 0, "arm_m", "must be > 0");
+  require(k_thrust > 0, "k_thrust", "must be > 0");
+  require(k_torque > 0, "k_torque", "must be > 0");
+  require(w_max_radps > 0, "w_max_radps", "must be > 0");
+  require(w_idle_radps >= 0 && w_idle_radps < w_max_radps, "w_idle_radps",
+          "must be in [0, w_max_radps)");
+  require(motor_tau_s >= 0, "motor_tau_s", "must be >= 0");
+  require(gravity_mps2 > 0, "gravity_mps2", "must be > 0");
+  // Six rotors at full speed must lift the vehicle with margin for control.
+  require(6.0 * k_thrust * w_max_radps * w_max_radps > 1.2 * mass_kg * gravity_mps2,
+          "w_max_radps", "full thrust must exceed 1.2 times the weight");
+}
+
+void CascadeParams::validate() const {
+  require(outer_rate_hz > 0, "outer_rate_hz", "must be > 0");
+  for (auto [name, value] : {std::pair<const char*, double>{"pos_kp_xy", pos_kp_xy},
+                             {"pos_kp_z", pos_kp_z},
+                             {"vel_kp_xy", vel_kp_xy},
+                             {"vel_kp_z", vel_kp_z},
+                             {"att_kp_rp", att_kp_rp},
+                             {"att_kp_yaw", att_kp_yaw},
+                             {"rate_kp_rp", rate_kp_rp},
+                             {"rate_kp_yaw", rate_kp_yaw},
+                             {"max_vel_xy_mps", max_vel_xy_mps},
+                             {"max_vel_up_mps", max_vel_up_mps},
+                             {"max_vel_down_mps", max_vel_down_mps},
+                             {"max_accel_z_mps2", max_accel_z_mps2},
+                             {"max_rate_rp_degps", max_rate_rp_degps},
+                             {"max_rate_yaw_degps", max_rate_yaw_degps}}) {
+    require(value > 0, name, "must be > 0");
+  }
+  for (auto [name, value] : {std::pair<const char*, double>{"vel_ki_xy", vel_ki_xy},
+                             {"vel_ki_z", vel_ki_z},
+                             {"rate_ki_rp", rate_ki_rp},
+                             {"rate_ki_yaw", rate_ki_yaw},
+                             {"max_int_accel_mps2", max_int_accel_mps2},
+                             {"max_int_alpha_radps2", max_int_alpha_radps2}}) {
+    require(value >= 0, name, "must be >= 0");
+  }
+  require(max_tilt_deg > 0 && max_tilt_deg < 80, "max_tilt_deg", "must be in (0, 80)");
+}
+
+void TrackerParams::validate() const {
+  require(poly_order >= 1 && poly_order <= 6, "poly_order", "must be in [1, 6]");
+  require(fit_window_s > 0, "fit_window_s", "must be > 0");
+  require(max_poly_extrapolation_s >= 0, "max_poly_extrapolation_s", "must be >= 0");
+  require(velocity_window_s > 0, "velocity_window_s", "must be > 0");
+  require(platform_max_speed_mps > 0, "platform_max_speed_mps", "must be > 0");
+  require(history_s >= fit_window_s, "history_s", "must be >= fit_window_s");
+  require(nav_history_s > 0, "nav_history_s", "must be > 0");
+}
+
+void LandingParams::validate() const {
+  require(observe_frames >= 1, "observe_frames", "must be >= 1");
+  require(approach_epsilon_m > 0, "approach_epsilon_m", "must be > 0");
+  require(approach_speed_mps > 0, "approach_speed_mps", "must be > 0");
+  require(approach_min_duration_s > 0, "approach_min_duration_s", "must be > 0");
+  require(approach_max_duration_s >= approach_min_duration_s, "approach_max_duration_s",
+          "must be >= approach_min_duration_s");
+  require(approach_switch_error_m > 0, "approach_switch_error_m", "must be > 0");
+  require(approach_settle_timeout_s >= 0, "approach_settle_timeout_s", "must be >= 0");
+  require(descent_rate_mps > 0, "descent_rate_mps", "must be > 0");
+  require(descent_rate_near_mps > 0 && descent_rate_near_mps <= descent_rate_mps,
+          "descent_rate_near_mps", "must be in (0, descent_rate_mps]");
+  require(near_height_m > 0, "near_height_m", "must be > 0");
+  require(descent_gate_m > 0, "descent_gate_m", "must be > 0");
+  require(descent_gate_near_m > 0, "descent_gate_near_m", "must be > 0");
+  require(final_hover_gap_m >= 0 && final_hover_gap_m < cut_height_m, "final_hover_gap_m",
+          "must be in [0, cut_height_m)");
+  require(gear_height_m >= 0, "gear_height_m", "must be >= 0");
+  require(cut_height_m > 0, "cut_height_m", "must be > 0");
+  require(touchdown_error_m > 0, "touchdown_error_m", "must be > 0");
+  require(max_touchdown_rel_speed_mps > 0, "max_touchdown_rel_speed_mps", "must be > 0");
+  require(steady_window_s > 0, "steady_window_s", "must be > 0");
+  require(steady_tilt_deg > 0, "steady_tilt_deg", "must be > 0");
+  require(max_platform_tilt_deg > 0 && max_platform_tilt_deg < 90, "max_platform_tilt_deg",
+          "must be in (0, 90)");
+  require(contact_min_time_s >= 0, "contact_min_time_s", "must be >= 0");
+  require(contact_accel_frac > 0 && contact_accel_frac < 1.5, "contact_accel_frac",
+          "must be in (0, 1.5)");
+  require(contact_confirm_s >= 0, "contact_confirm_s", "must be >= 0");
+  require(contact_timeout_s > contact_min_time_s, "contact_timeout_s",
+          "must be > contact_min_time_s");
+  require(loss_timeout_s > 0, "loss_timeout_s", "must be > 0");
+  require(recovery_loss_timeout_s > 0, "recovery_loss_timeout_s", "must be > 0");
+  require(reacquire_frames >= 1, "reacquire_frames", "must be >= 1");
+  require(go_around_low_height_m > 0, "go_around_low_height_m", "must be > 0");
+  require(go_around_error_m > touchdown_error_m, "go_around_error_m",
+          "must be > touchdown_error_m");
+  require(go_around_height_m > approach_epsilon_m, "go_around_height_m",
+          "must be > approach_epsilon_m");
+  require(search_min_height_m > 0, "search_min_height_m", "must be > 0");
+  require(search_yaw_rate_degps >= 0 && search_yaw_rate_degps <= 90, "search_yaw_rate_degps",
+          "must be in [0, 90]");
+  require(observe_follow_max_speed_mps > 0, "observe_follow_max_speed_mps", "must be > 0");
+}
+
+namespace {
+// Runs a section's validate() and prefixes its message with the section name.
+template <class P>
+void validate_section(const P& p, const char* section) {
+  try {
+    p.validate();
+  } catch (const ConfigError& e) {
+    throw ConfigError(std::string(section) + ": " + e.what());
+  }
+}
+}  // namespace
+
+void ControllerParams::validate() const {
+  validate_section(vehicle, "vehicle");
+  validate_section(cascade, "cascade");
+  validate_section(tracker, "tracker");
+  validate_section(landing, "landing");
+}
+
+}  // namespace lander::ctl

@@ -1,0 +1,195 @@
+// Platform fixes in W (eq. 24), polynomial prediction (eq. 25-28), velocity, steadiness.
+#include "lander/controller/platform_tracker.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include <Eigen/Dense>
+
+namespace lander::ctl {
+namespace {
+constexpr double kDegToRad = M_PI / 180.0;
+
+// Bounds the norm of v to max_norm.
+Eigen::Vector3d clamp_norm(const Eigen::Vector3d& v, double max_norm) {
+  const double n = v.norm();
+  return n > max_norm ? Eigen::Vector3d(v * (max_norm / n)) : v;
+}
+}  // namespace
+
+PlatformTracker::PlatformTracker(const TrackerParams& params, const CameraMount& mount)
+    : p_(params), X_BC_(mount.X_BC()), last_detection_t_(-std::numeric_limits<double>::infinity()) {
+  p_.validate();
+}
+
+void PlatformTracker::add_nav(const NavState& nav) {
+  if (!nav.valid) return;
+  if (!nav_.empty() && nav.t_s <= nav_.back().t_s) {
+    if (nav.t_s == nav_.back().t_s) nav_.back() = nav;
+    return;  // out of order: ignore
+  }
+  nav_.push_back(nav);
+  while (nav_.size() > 2 && nav_.front().t_s < nav.t_s - p_.nav_history_s) nav_.pop_front();
+}
+
+NavState PlatformTracker::nav_at(double t_s) const {
+  if (nav_.empty()) throw std::logic_error("PlatformTracker::nav_at: no valid navigation state");
+  if (t_s <= nav_.front().t_s) return nav_.front();
+  if (t_s >= nav_.back().t_s) return nav_.back();
+  // First element with time > t_s; its predecessor has time <= t_s.
+  auto hi = std::upper_bound(nav_.begin(), nav_.end(), t_s,
+                             [](double t, const NavState& n) { return t < n.t_s; });
+  auto lo = hi - 1;
+  const double u = (t_s - lo->t_s) / (hi->t_s - lo->t_s);
+  NavState out = *lo;
+  out.t_s = t_s;
+  out.p_W_m = (1 - u) * lo->p_W_m + u * hi->p_W_m;
+  out.v_W_mps = (1 - u) * lo->v_W_mps + u * hi->v_W_mps;
+  out.omega_B_radps = (1 - u) * lo->omega_B_radps + u * hi->omega_B_radps;
+  out.q_WB = lo->q_WB.slerp(u, hi->q_WB);
+  return out;
+}
+
+PlatformFix PlatformTracker::fix_from(const PlatformObservation& obs, const NavState& nav,
+                                      const Eigen::Isometry3d& X_BC) {
+  // seed 000 eq. 24: P_n = R_b^n R_c^b P_c + t_b^n, plus the camera offset p_BC in B.
+  const Eigen::Matrix3d R_WB = nav.q_WB.toRotationMatrix();
+  PlatformFix f;
+  f.t_s = obs.t_s;
+  f.p_BP_W_m = R_WB * (X_BC.linear() * obs.X_CP.translation() + X_BC.translation());
+  f.p_W_m = f.p_BP_W_m + nav.p_W_m;
+  f.n_W = (R_WB * X_BC.linear() * obs.X_CP.linear()).col(2).normalized();
+  return f;
+}
+
+bool PlatformTracker::add_observation(const PlatformObservation& obs) {
+  if (!obs.detected) {
+    streak_ = 0;
+    return false;
+  }
+  last_detection_t_ = std::max(last_detection_t_, obs.t_s);
+  if (!obs.keyframe || nav_.empty()) return false;
+  if (!fixes_.empty() && obs.t_s <= fixes_.back().t_s) return false;  // stale or duplicate
+  fixes_.push_back(fix_from(obs, nav_at(obs.t_s), X_BC_));
+  ++streak_;
+  while (!fixes_.empty() && fixes_.front().t_s < obs.t_s - p_.history_s) fixes_.pop_front();
+  fit_dirty_ = true;
+  return true;
+}
+
+void PlatformTracker::clear() {
+  fixes_.clear();
+  streak_ = 0;
+  fit_dirty_ = true;
+  fit_ = PolynomialFit3{};
+}
+
+const PlatformFix& PlatformTracker::latest() const {
+  if (fixes_.empty()) throw std::logic_error("PlatformTracker::latest: no fix");
+  return fixes_.back();
+}
+
+const PolynomialFit3& PlatformTracker::fit() const {
+  if (!fit_dirty_) return fit_;
+  fit_dirty_ = false;
+  fit_ = PolynomialFit3{};
+  std::vector<double> t;
+  std::vector<Eigen::Vector3d> p;
+  if (fixes_.empty()) return fit_;
+  const double t_from = fixes_.back().t_s - p_.fit_window_s;
+  for (const PlatformFix& f : fixes_) {
+    if (f.t_s < t_from) continue;
+    t.push_back(f.t_s);
+    p.push_back(f.p_W_m);
+  }
+  // Keep at least two samples of redundancy per coefficient (eq. 25-27 by least squares).
+  const int order = std::min(p_.poly_order, static_cast<int>(t.size()) - 2);
+  if (order < 0) return fit_;
+  if (order > 0 && !(t.back() > t.front())) return fit_;
+  fit_.fit(t, p, order);
+  return fit_;
+}
+
+Eigen::Vector3d PlatformTracker::velocity() const {
+  if (fixes_.size() < 3) return Eigen::Vector3d::Zero();
+  const double t_from = fixes_.back().t_s - p_.velocity_window_s;
+  // Linear least squares p = a + b (t - t_last) over the window.
+  double s0 = 0, s1 = 0, s2 = 0;
+  Eigen::Vector3d sp = Eigen::Vector3d::Zero(), stp = Eigen::Vector3d::Zero();
+  for (const PlatformFix& f : fixes_) {
+    if (f.t_s < t_from) continue;
+    const double dt = f.t_s - fixes_.back().t_s;
+    s0 += 1;
+    s1 += dt;
+    s2 += dt * dt;
+    sp += f.p_W_m;
+    stp += dt * f.p_W_m;
+  }
+  const double det = s0 * s2 - s1 * s1;
+  if (s0 < 3 || det <= 1e-12) return Eigen::Vector3d::Zero();
+  const Eigen::Vector3d b = (s0 * stp - s1 * sp) / det;
+  return clamp_norm(b, p_.platform_max_speed_mps);
+}
+
+Eigen::Vector3d PlatformTracker::position_now(double t_s) const {
+  const PlatformFix& f = latest();
+  return f.p_W_m + velocity() * std::max(0.0, t_s - f.t_s);
+}
+
+Eigen::Vector3d PlatformTracker::predict(double t_s) const {
+  const PlatformFix& last = latest();
+  const double horizon = std::max(0.0, t_s - last.t_s);
+  const PolynomialFit3& poly = fit();
+  Eigen::Vector3d p;
+  if (!poly.valid()) {
+    p = last.p_W_m + velocity() * horizon;
+  } else if (horizon <= p_.max_poly_extrapolation_s) {
+    p = poly.position(t_s);  // eq. 25-27 evaluated at t_d (eq. 28)
+  } else {
+    const double t_edge = last.t_s + p_.max_poly_extrapolation_s;
+    p = poly.position(t_edge) + velocity() * (t_s - t_edge);
+  }
+  // Plausibility: the platform cannot have moved faster than its speed bound.
+  return last.p_W_m + clamp_norm(p - last.p_W_m, p_.platform_max_speed_mps * horizon + 0.05);
+}
+
+bool PlatformTracker::steady(double window_s, double spread_deg, double max_tilt_deg,
+                             std::string* why) const {
+  if (fixes_.empty()) {
+    if (why) *why = "no platform fix";
+    return false;
+  }
+  const double t_from = fixes_.back().t_s - window_s;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  int n = 0;
+  for (const PlatformFix& f : fixes_) {
+    if (f.t_s >= t_from) {
+      mean += f.n_W;
+      ++n;
+    }
+  }
+  if (n < 2) {
+    if (why) *why = "fewer than 2 fixes in the steadiness window";
+    return false;
+  }
+  mean.normalize();
+  const double tilt = std::acos(std::clamp(mean.z(), -1.0, 1.0));
+  if (tilt > max_tilt_deg * kDegToRad) {
+    if (why) *why = "platform tilted " + std::to_string(tilt / kDegToRad) + " deg";
+    return false;
+  }
+  for (const PlatformFix& f : fixes_) {
+    if (f.t_s < t_from) continue;
+    const double a = std::acos(std::clamp(f.n_W.dot(mean), -1.0, 1.0));
+    if (a > spread_deg * kDegToRad) {
+      if (why) *why = "platform attitude unsteady (" + std::to_string(a / kDegToRad) + " deg)";
+      return false;
+    }
+  }
+  if (why) why->clear();
+  return true;
+}
+
+}  // namespace lander::ctl

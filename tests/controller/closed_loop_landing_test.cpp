@@ -1,0 +1,64 @@
+// Full closed-loop landing in the simple rigid-body model (tests/controller/support):
+// perfect navigation state, synthetic 30 Hz vision with noise and latency, platform moving
+// at 0.5 m/s. A controller unit test, not the product's integration test.
+#include <gtest/gtest.h>
+
+#include <iostream>
+
+#include "support/hex_model.h"
+
+namespace lander::ctl::test {
+namespace {
+
+// Issue 5: the default scenario must land within 5 cm of the platform centre.
+constexpr double kMaxTouchdownOffset_m = 0.05;
+// A touchdown faster than this would bounce off a cart top; the cut height of 10 cm gives
+// sqrt(2 g 0.1) = 1.4 m/s at most, so a proper cut stays well below.
+constexpr double kMaxTouchdownRelSpeed_mps = 1.5;
+// Landing gear tolerates a few degrees of tilt at contact.
+constexpr double kMaxTouchdownTilt_deg = 5.0;
+// Attitude never exceeds the cascade's tilt limit (30 deg) by more than the overshoot of the
+// attitude loop.
+constexpr double kMaxFlightTilt_deg = 35.0;
+
+LandingRunConfig moving_platform_config() {
+  LandingRunConfig cfg;
+  cfg.platform.p0_W_m = Eigen::Vector3d(0.0, 0.0, 0.8);
+  cfg.platform.v_W_mps = Eigen::Vector3d(0.5, 0.0, 0.0);
+  cfg.start_W_m = Eigen::Vector3d(-5.0, 0.0, 10.0);
+  return cfg;
+}
+
+TEST(ClosedLoopLanding, LandsOnPlatformMovingAtHalfMetrePerSecondWithin5cm) {
+  const LandingRunResult r = run_landing(moving_platform_config());
+  SCOPED_TRACE(r.describe());
+  std::cout << r.describe();
+  ASSERT_TRUE(r.contact);
+  EXPECT_TRUE(r.on_platform);
+  EXPECT_TRUE(r.landed) << "controller did not report contact";
+  EXPECT_LT(r.touchdown_offset_m, kMaxTouchdownOffset_m);
+  EXPECT_LT(r.touchdown_rel_speed_mps, kMaxTouchdownRelSpeed_mps);
+  EXPECT_LT(r.touchdown_tilt_deg, kMaxTouchdownTilt_deg);
+  EXPECT_LT(r.max_tilt_deg, kMaxFlightTilt_deg);
+  // The paper's order of modes, without detours.
+  std::vector<Mode> seen;
+  for (const ModeTransition& tr : r.transitions) seen.push_back(tr.to);
+  const std::vector<Mode> expected = {Mode::kObserve, Mode::kApproach, Mode::kRecovery,
+                                      Mode::kTouchdown, Mode::kLanded};
+  EXPECT_EQ(seen, expected);
+}
+
+TEST(ClosedLoopLanding, LandsOnStaticPlatformWithin5cm) {
+  LandingRunConfig cfg = moving_platform_config();
+  cfg.platform.v_W_mps.setZero();
+  cfg.start_W_m = Eigen::Vector3d(-3.0, 2.0, 10.0);
+  const LandingRunResult r = run_landing(cfg);
+  SCOPED_TRACE(r.describe());
+  ASSERT_TRUE(r.contact);
+  EXPECT_TRUE(r.on_platform);
+  EXPECT_TRUE(r.landed);
+  EXPECT_LT(r.touchdown_offset_m, kMaxTouchdownOffset_m);
+}
+
+}  // namespace
+}  // namespace lander::ctl::test
