@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <iomanip>
+#include <optional>
 #include <sstream>
 
 #include <opencv2/calib3d.hpp>
@@ -114,54 +115,60 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
     d.reason = std::move(why);
     return false;
   };
-  const std::vector<EllipseCandidate> cands = vision_internal::find_ellipses(grey, roi, cam, p);
-  for (const auto& c : cands) {
+  cv::Mat blurred;
+  std::vector<EllipseCandidate> cands =
+      vision_internal::find_ellipses(grey, roi, cam, p, &blurred);
+  auto add_ellipse = [&](const EllipseCandidate& c) {
     DetectedEllipse e;
     e.C = c.C;
     e.image = c.image;
     e.fit_rms_px = c.fit_rms_px;
     d.ellipses.push_back(e);
-  }
+  };
+  for (const auto& c : cands) add_ellipse(c);
   if (cands.empty()) return fail(VisionStatus::NoEllipses, "no contour passed the ellipse tests");
 
   // Concentric pairs (eq. 1), their centres (eq. 2-8) and radius ratios (eq. 9).
+  auto make_pair = [&](int i, int j) -> std::optional<PairCandidate> {
+    const EllipseParams& O = cands[i].undist;
+    const EllipseParams& I = cands[j].undist;
+    if (i == j || !(I.a < O.a && I.b < O.b)) return std::nullopt;
+    if ((O.centre - I.centre).norm() > p.max_centre_offset_ratio * I.b) return std::nullopt;
+    if (!concentric_test(cands[i].C, cands[j].C)) return std::nullopt;  // eq. (1)
+    const auto hc = harmonic_centre(cands[i].C, cands[j].C, p.harmonic_tol_px,
+                                    p.harmonic_max_iter);  // eq. (2)-(8)
+    if (!hc) return std::nullopt;
+    // Eq. (9) along the outer ellipse's two axis directions through the centre.
+    double rsum = 0.0;
+    int rn = 0;
+    for (double ang : {O.angle_rad, O.angle_rad + 0.5 * M_PI}) {
+      const auto k = cross_ratio_through(cands[i].C, cands[j].C, hc->centre,
+                                         Eigen::Vector2d(std::cos(ang), std::sin(ang)));
+      if (k) {
+        rsum += radius_ratio_from_cross_ratio(*k);
+        ++rn;
+      }
+    }
+    if (rn == 0) return std::nullopt;
+    PairCandidate pc;
+    pc.outer = i;
+    pc.inner = j;
+    pc.centre = hc->centre;
+    pc.iterations = hc->iterations;
+    pc.ratio = rsum / rn;
+    for (const auto& ring : target.rings) {
+      const double err = std::abs(pc.ratio - ring.radius_ratio());
+      if (err < pc.err) {
+        pc.err = err;
+        pc.ring_id = ring.id;
+      }
+    }
+    return pc;
+  };
   std::vector<PairCandidate> pairs;
   for (int i = 0; i < static_cast<int>(cands.size()); ++i) {
-    const EllipseParams& O = cands[i].undist;
     for (int j = 0; j < static_cast<int>(cands.size()); ++j) {
-      const EllipseParams& I = cands[j].undist;
-      if (i == j || !(I.a < O.a && I.b < O.b)) continue;
-      if ((O.centre - I.centre).norm() > p.max_centre_offset_ratio * I.b) continue;
-      if (!concentric_test(cands[i].C, cands[j].C)) continue;  // eq. (1)
-      const auto hc = harmonic_centre(cands[i].C, cands[j].C, p.harmonic_tol_px,
-                                      p.harmonic_max_iter);  // eq. (2)-(8)
-      if (!hc) continue;
-      // Eq. (9) along the outer ellipse's two axis directions through the centre.
-      double rsum = 0.0;
-      int rn = 0;
-      for (double ang : {O.angle_rad, O.angle_rad + 0.5 * M_PI}) {
-        const auto k = cross_ratio_through(cands[i].C, cands[j].C, hc->centre,
-                                           Eigen::Vector2d(std::cos(ang), std::sin(ang)));
-        if (k) {
-          rsum += radius_ratio_from_cross_ratio(*k);
-          ++rn;
-        }
-      }
-      if (rn == 0) continue;
-      PairCandidate pc;
-      pc.outer = i;
-      pc.inner = j;
-      pc.centre = hc->centre;
-      pc.iterations = hc->iterations;
-      pc.ratio = rsum / rn;
-      for (const auto& ring : target.rings) {
-        const double err = std::abs(pc.ratio - ring.radius_ratio());
-        if (err < pc.err) {
-          pc.err = err;
-          pc.ring_id = ring.id;
-        }
-      }
-      pairs.push_back(pc);
+      if (auto pc = make_pair(i, j)) pairs.push_back(*pc);
     }
   }
   if (pairs.empty()) {
@@ -207,6 +214,41 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
       d.ellipses[pc.outer].outer = true;
     }
   };
+  // Guided inner search: an outer circle whose inner circle was not found as a contour (too
+  // small, or touching the code pattern inside the central ring) is searched for an inner
+  // edge at each unidentified model ratio, in a band narrower than the gap to the outer edge.
+  if (p.guided_inner_search) {
+    const int n0 = static_cast<int>(cands.size());
+    for (int i = 0; i < n0; ++i) {
+      if (used_ellipse[i]) continue;
+      for (const auto& ring : target.rings) {
+        if (id_used(ring.id) || used_ellipse[i]) continue;
+        const double rho = ring.radius_ratio();
+        EllipseParams guess = cands[i].image;
+        guess.a *= rho;
+        guess.b *= rho;
+        if (guess.b < p.min_axis_px) continue;
+        const double search = std::min(p.edge_search_px, 0.45 * (1.0 - rho) * cands[i].image.b);
+        if (search < 0.5) continue;
+        auto inner = vision_internal::refine_candidate(blurred, cv::Point2f(roi.x, roi.y), guess,
+                                                       search, cam, p);
+        if (!inner) continue;
+        cands.push_back(std::move(*inner));
+        const int j = static_cast<int>(cands.size()) - 1;
+        used_ellipse.push_back(false);
+        auto pc = make_pair(i, j);
+        if (!pc || pc->err > p.ratio_tol || id_used(pc->ring_id)) {
+          cands.pop_back();
+          used_ellipse.pop_back();
+          continue;
+        }
+        add_ellipse(cands.back());
+        pairs.push_back(*pc);
+        used_ellipse[i] = used_ellipse[j] = true;
+        chosen.push_back(static_cast<int>(pairs.size()) - 1);
+      }
+    }
+  }
   fill_centres();
   if (chosen.empty()) {
     return fail(VisionStatus::NoRingIdentified,

@@ -48,15 +48,31 @@ constexpr double kProfileStepPx = 0.25;
 // Sub-pixel edge points of ellipse `e` (full-image px): along each sampled normal, the
 // crossing of the mid-level between the profile's darkest and brightest values nearest to
 // the ellipse. `img` is the (blurred) ROI, `off` its origin in the full image.
+//
+// Curvature correction: blurring a disc of radius R with a Gaussian of variance s^2 moves its
+// mid-level contour inwards by s^2 / (2 R) to first order, for a dark disc on light as for a
+// light hole in dark; so each point is moved outwards by s^2 kappa / 2 with kappa the local
+// curvature of the ellipse, s^2 = pre-filter^2 + camera blur^2 + 1/12 (the pixel box).
+//
+// Level: half-way between the darkest and the brightest value over all profiles of this
+// ellipse, not of each profile: where the annulus or the hole is only a few pixels across
+// (far range, strong tilt), a single profile never reaches the full dark or light level and
+// its own mid-level would sit outside the true edge (a blurred thin bar looks wider).
 std::vector<Eigen::Vector2d> edge_points(const cv::Mat& img, const cv::Point2f& off,
-                                         const EllipseParams& e, const VisionParams& p) {
+                                         const EllipseParams& e, double search_px,
+                                         const VisionParams& p) {
   std::vector<Eigen::Vector2d> pts;
   const int n = p.edge_samples;
   pts.reserve(n);
-  const double L = std::clamp(std::min(p.edge_search_px, 0.6 * e.b), 1.0, p.edge_search_px);
+  const double s2 = p.gaussian_sigma_px * p.gaussian_sigma_px +
+                    p.edge_blur_sigma_px * p.edge_blur_sigma_px + 1.0 / 12.0;
+  const double L = std::clamp(std::min(search_px, 0.6 * e.b), 0.75, search_px);
   const int m = static_cast<int>(std::round(2 * L / kProfileStepPx)) + 1;
-  std::vector<double> prof(m);
+  std::vector<double> prof(static_cast<std::size_t>(n) * m);
+  std::vector<char> valid(n, 0);
+  std::vector<Eigen::Vector2d> base(n), normal(n);
   const double ca = std::cos(e.angle_rad), sa = std::sin(e.angle_rad);
+  double glo = 1e9, ghi = -1e9;
   for (int k = 0; k < n; ++k) {
     const double th = 2.0 * M_PI * (k + 0.5) / n;
     const double lx = e.a * std::cos(th), ly = e.b * std::sin(th);
@@ -65,26 +81,42 @@ std::vector<Eigen::Vector2d> edge_points(const cv::Mat& img, const cv::Point2f& 
     Eigen::Vector2d nl(std::cos(th) / e.a, std::sin(th) / e.b);
     Eigen::Vector2d nrm(ca * nl.x() - sa * nl.y(), sa * nl.x() + ca * nl.y());
     nrm.normalize();
+    base[k] = x;
+    normal[k] = nrm;
     bool ok = true;
     double lo = 1e9, hi = -1e9;
+    double* pr = &prof[static_cast<std::size_t>(k) * m];
     for (int j = 0; j < m && ok; ++j) {
       const double s = -L + j * kProfileStepPx;
-      ok = sample(img, x.x() + s * nrm.x(), x.y() + s * nrm.y(), prof[j]);
-      lo = std::min(lo, prof[j]);
-      hi = std::max(hi, prof[j]);
+      ok = sample(img, x.x() + s * nrm.x(), x.y() + s * nrm.y(), pr[j]);
+      lo = std::min(lo, pr[j]);
+      hi = std::max(hi, pr[j]);
     }
     if (!ok || hi - lo < kMinEdgeContrast) continue;
-    const double level = 0.5 * (lo + hi);
+    valid[k] = 1;
+    glo = std::min(glo, lo);
+    ghi = std::max(ghi, hi);
+  }
+  const double level = 0.5 * (glo + ghi);
+  for (int k = 0; k < n; ++k) {
+    if (!valid[k]) continue;
+    const double* pr = &prof[static_cast<std::size_t>(k) * m];
     double best = 1e9;
     for (int j = 0; j + 1 < m; ++j) {
-      const double d0 = prof[j] - level, d1 = prof[j + 1] - level;
+      const double d0 = pr[j] - level, d1 = pr[j + 1] - level;
       if ((d0 < 0) == (d1 < 0) && d0 != 0) continue;
       const double f = (d0 == d1) ? 0.5 : d0 / (d0 - d1);
       const double s = -L + (j + f) * kProfileStepPx;
       if (std::abs(s) < std::abs(best)) best = s;
     }
     if (std::abs(best) > L) continue;
-    pts.emplace_back(x.x() + best * nrm.x() + off.x, x.y() + best * nrm.y() + off.y);
+    const double th = 2.0 * M_PI * (k + 0.5) / n;
+    const double den = std::pow(e.a * e.a * std::sin(th) * std::sin(th) +
+                                    e.b * e.b * std::cos(th) * std::cos(th), 1.5);
+    const double kappa = e.a * e.b / den;
+    best += 0.5 * s2 * kappa;
+    pts.emplace_back(base[k].x() + best * normal[k].x() + off.x,
+                     base[k].y() + best * normal[k].y() + off.y);
   }
   return pts;
 }
@@ -109,8 +141,49 @@ std::optional<Conic> robust_fit(std::vector<Eigen::Vector2d>& pts, double* rms) 
 
 }  // namespace
 
+// Sub-pixel edges around `e0` (raw image px) and refit, then undistort the edge points (never
+// the image) and fit again in undistorted px.
+std::optional<EllipseCandidate> refine_candidate(const cv::Mat& blurred, const cv::Point2f& off,
+                                                 const EllipseParams& e0, double search_px,
+                                                 const CameraModel& cam, const VisionParams& p) {
+  EllipseParams e = e0;
+  std::vector<Eigen::Vector2d> pts;
+  double rms = 0.0;
+  for (int it = 0; it < std::max(1, p.refine_iterations); ++it) {
+    pts = edge_points(blurred, off, e, search_px, p);
+    if (static_cast<int>(pts.size()) < std::max(6, static_cast<int>(0.6 * p.edge_samples))) {
+      return std::nullopt;
+    }
+    const auto C = robust_fit(pts, &rms);
+    const auto en = C ? ellipse_from_conic(*C) : std::nullopt;
+    if (!en) return std::nullopt;
+    e = *en;
+  }
+  if (rms > p.max_edge_fit_rms_px) return std::nullopt;
+  EllipseCandidate cand;
+  cand.image = e;
+  if (cam.has_distortion()) {
+    const cv::Mat Kcv = (cv::Mat_<double>(3, 3) << cam.fx_px, 0, cam.cx_px, 0, cam.fy_px,
+                         cam.cy_px, 0, 0, 1);
+    const cv::Mat Dcv = (cv::Mat_<double>(1, 5) << cam.k1, cam.k2, cam.p1, cam.p2, cam.k3);
+    std::vector<cv::Point2d> src(pts.size()), dst;
+    for (std::size_t i = 0; i < pts.size(); ++i) src[i] = cv::Point2d(pts[i].x(), pts[i].y());
+    cv::undistortPoints(src, dst, Kcv, Dcv, cv::noArray(), Kcv);
+    for (std::size_t i = 0; i < pts.size(); ++i) pts[i] = Eigen::Vector2d(dst[i].x, dst[i].y);
+  }
+  const auto C = fit_ellipse(pts, &rms);
+  const auto eu = C ? ellipse_from_conic(*C) : std::nullopt;
+  if (!eu || rms > p.max_edge_fit_rms_px) return std::nullopt;
+  cand.C = *C;
+  cand.undist = *eu;
+  cand.points = std::move(pts);
+  cand.fit_rms_px = rms;
+  return cand;
+}
+
 std::vector<EllipseCandidate> find_ellipses(const cv::Mat& grey, const cv::Rect& roi,
-                                            const CameraModel& cam, const VisionParams& p) {
+                                            const CameraModel& cam, const VisionParams& p,
+                                            cv::Mat* blurred_out) {
   std::vector<EllipseCandidate> out;
   const cv::Mat sub = grey(roi);
   const cv::Point2f off(static_cast<float>(roi.x), static_cast<float>(roi.y));
@@ -138,12 +211,10 @@ std::vector<EllipseCandidate> find_ellipses(const cv::Mat& grey, const cv::Rect&
   } else if (p.close_kernel_px > 1) {
     cv::morphologyEx(bin, bin, cv::MORPH_CLOSE, kernel);
   }
+  if (blurred_out) *blurred_out = blurred;
   std::vector<std::vector<cv::Point>> contours;
   cv::findContours(bin, contours, cv::RETR_LIST, cv::CHAIN_APPROX_NONE);
 
-  const cv::Mat Kcv = (cv::Mat_<double>(3, 3) << cam.fx_px, 0, cam.cx_px, 0, cam.fy_px, cam.cy_px,
-                       0, 0, 1);
-  const cv::Mat Dcv = (cv::Mat_<double>(1, 5) << cam.k1, cam.k2, cam.p1, cam.p2, cam.k3);
   for (const auto& c : contours) {
     if (static_cast<int>(c.size()) < p.min_contour_points) continue;
     const cv::Rect br = cv::boundingRect(c);
@@ -168,43 +239,8 @@ std::vector<EllipseCandidate> find_ellipses(const cv::Mat& grey, const cv::Rect&
     }
     if (std::sqrt(ss / cnt) > p.max_contour_fit_rms_px) continue;
 
-    // Sub-pixel edges and refit, in raw image px.
-    EllipseParams e = e0;
-    std::vector<Eigen::Vector2d> pts;
-    bool ok = true;
-    double rms = 0.0;
-    for (int it = 0; it < std::max(1, p.refine_iterations) && ok; ++it) {
-      pts = edge_points(blurred, off, e, p);
-      if (static_cast<int>(pts.size()) < std::max(6, static_cast<int>(0.6 * p.edge_samples))) {
-        ok = false;
-        break;
-      }
-      const auto C = robust_fit(pts, &rms);
-      const auto en = C ? ellipse_from_conic(*C) : std::nullopt;
-      if (!en) {
-        ok = false;
-        break;
-      }
-      e = *en;
-    }
-    if (!ok || rms > p.max_edge_fit_rms_px) continue;
-    EllipseCandidate cand;
-    cand.image = e;
-    // Undistort the edge points (never the image), then fit in undistorted px.
-    if (cam.has_distortion()) {
-      std::vector<cv::Point2d> src(pts.size()), dst;
-      for (std::size_t i = 0; i < pts.size(); ++i) src[i] = cv::Point2d(pts[i].x(), pts[i].y());
-      cv::undistortPoints(src, dst, Kcv, Dcv, cv::noArray(), Kcv);
-      for (std::size_t i = 0; i < pts.size(); ++i) pts[i] = Eigen::Vector2d(dst[i].x, dst[i].y);
-    }
-    const auto C = fit_ellipse(pts, &rms);
-    const auto eu = C ? ellipse_from_conic(*C) : std::nullopt;
-    if (!eu || rms > p.max_edge_fit_rms_px) continue;
-    cand.C = *C;
-    cand.undist = *eu;
-    cand.points = std::move(pts);
-    cand.fit_rms_px = rms;
-    out.push_back(std::move(cand));
+    auto cand = refine_candidate(blurred, off, e0, p.edge_search_px, cam, p);
+    if (cand) out.push_back(std::move(*cand));
   }
   // Duplicates (both sides of a Canny edge converge on the same sub-pixel edge): keep one.
   constexpr double kSameEllipsePx = 0.5;

@@ -1,6 +1,7 @@
 // Internal stages of the ring detector (not part of the public API).
 #pragma once
 
+#include <optional>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -22,8 +23,17 @@ struct EllipseCandidate {
 
 // Stage 1-2: contours of `grey` inside `roi` -> sub-pixel ellipses (image-wide coordinates).
 // `grey` is the full 8-bit frame.
+// `blurred_out`, if given, receives the pre-filtered ROI for refine_candidate().
 std::vector<EllipseCandidate> find_ellipses(const cv::Mat& grey, const cv::Rect& roi,
-                                            const CameraModel& cam, const VisionParams& p);
+                                            const CameraModel& cam, const VisionParams& p,
+                                            cv::Mat* blurred_out = nullptr);
+
+// Sub-pixel edge points around the ellipse guess `e0` (raw image px) searched within
+// +-search_px along the normals, refitted; nullopt if too few edges or a poor fit.
+// `blurred` is the pre-filtered ROI whose origin is `off` in the full image.
+std::optional<EllipseCandidate> refine_candidate(const cv::Mat& blurred, const cv::Point2f& off,
+                                                 const EllipseParams& e0, double search_px,
+                                                 const CameraModel& cam, const VisionParams& p);
 
 // Stage 5b: Levenberg-Marquardt on the conic reprojection cost (seed 000 eq. 14-15).
 struct ConicObservation {

@@ -16,6 +16,8 @@ void VisionParams::validate() const {
   require(refine_iterations >= 1 && refine_iterations <= 10, "refine_iterations",
           "must be in [1, 10]");
   require(max_edge_fit_rms_px > 0, "max_edge_fit_rms_px", "must be > 0");
+  require(edge_blur_sigma_px >= 0 && edge_blur_sigma_px <= 10, "edge_blur_sigma_px",
+          "must be in [0, 10]");
   require(max_centre_offset_ratio > 0, "max_centre_offset_ratio", "must be > 0");
   require(harmonic_tol_px > 0, "harmonic_tol_px", "must be > 0");
   require(harmonic_max_iter >= 2, "harmonic_max_iter", "must be >= 2");

@@ -17,7 +17,9 @@ struct VisionParams {
   bool canny_edges{false};           ///< Canny + close on the binary image before contours
                                      ///< (the paper's chain; border following of the binary
                                      ///< image gives the same boundaries faster)
-  int close_kernel_px{3};            ///< morphological close kernel side (px), 1 = none
+  int close_kernel_px{1};            ///< morphological close kernel side (px), 1 = none; off
+                                     ///< by default: at range the 0.08 m gap between ring sets
+                                     ///< is 2-3 px and a close merges neighbouring sets
   int min_contour_points{14};        ///< contours shorter than this are ignored (px)
   double min_axis_px{1.5};           ///< smallest accepted ellipse semi-axis (px)
   double min_axis_ratio{0.15};       ///< minor/major semi-axis ratio floor (about 81 deg tilt)
@@ -28,6 +30,9 @@ struct VisionParams {
   double edge_search_px{3.0};        ///< half length of the normal profile searched (px)
   int refine_iterations{2};          ///< resample-and-refit passes
   double max_edge_fit_rms_px{0.5};   ///< sub-pixel edge fit RMS gate (px)
+  double edge_blur_sigma_px{0.0};    ///< camera blur (optics, defocus) sigma beyond the pixel
+                                     ///< box, for the curvature correction of edge points (px)
+  bool guided_inner_search{true};    ///< look for a missing inner circle at each model ratio
 
   // ---- concentric pairing and identity (eq. 1-9) ----
   double max_centre_offset_ratio{0.35};  ///< |c_outer - c_inner| / inner minor axis, ceiling
@@ -72,6 +77,8 @@ void visit_fields(V& v, VisionParams& p) {
   v("edge_search_px", p.edge_search_px);
   v("refine_iterations", p.refine_iterations);
   v("max_edge_fit_rms_px", p.max_edge_fit_rms_px);
+  v("edge_blur_sigma_px", p.edge_blur_sigma_px);
+  v("guided_inner_search", p.guided_inner_search);
   v("max_centre_offset_ratio", p.max_centre_offset_ratio);
   v("harmonic_tol_px", p.harmonic_tol_px);
   v("harmonic_max_iter", p.harmonic_max_iter);

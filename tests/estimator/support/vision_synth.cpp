@@ -1,0 +1,241 @@
+#include "estimator/support/vision_synth.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <mutex>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "lander/estimator/vision_conic.h"
+
+namespace lander::test {
+
+const TargetGeometry& default_target() {
+  static const TargetGeometry g = TargetGeometry::load(LANDER_MODELS_DIR "/target.yaml");
+  return g;
+}
+
+Eigen::Isometry3d look_at_pose(double altitude_m, double tilt_deg, double yaw_deg,
+                               double azimuth_deg, const Eigen::Vector2d& aim_P_m) {
+  const double th = tilt_deg * M_PI / 180, az = azimuth_deg * M_PI / 180;
+  const Eigen::Vector3d d(std::sin(th) * std::cos(az), std::sin(th) * std::sin(az), std::cos(th));
+  const Eigen::Vector3d aim(aim_P_m.x(), aim_P_m.y(), 0.0);
+  const Eigen::Vector3d p_PC = aim + (altitude_m / std::cos(th)) * d;
+  const Eigen::Vector3d z = -d;
+  Eigen::Vector3d x0 = Eigen::Vector3d::UnitX() - Eigen::Vector3d::UnitX().dot(z) * z;
+  if (x0.norm() < 1e-6) x0 = Eigen::Vector3d::UnitY() - Eigen::Vector3d::UnitY().dot(z) * z;
+  x0.normalize();
+  const Eigen::Vector3d y0 = z.cross(x0);
+  const double yaw = yaw_deg * M_PI / 180;
+  const Eigen::Vector3d x = std::cos(yaw) * x0 + std::sin(yaw) * y0;
+  const Eigen::Vector3d y = z.cross(x);
+  Eigen::Isometry3d X_PC = Eigen::Isometry3d::Identity();
+  X_PC.linear().col(0) = x;
+  X_PC.linear().col(1) = y;
+  X_PC.linear().col(2) = z;
+  X_PC.translation() = p_PC;
+  return X_PC.inverse();
+}
+
+namespace {
+
+// Grey float texture pyramid (level k: 2^k texels per level texel), cached per target.
+const std::vector<cv::Mat>& texture_levels(const TargetGeometry& g) {
+  static std::mutex mu;
+  static std::map<const TargetGeometry*, std::vector<cv::Mat>> cache;
+  std::lock_guard<std::mutex> lock(mu);
+  auto& levels = cache[&g];
+  if (levels.empty()) {
+    cv::Mat bgr = render_target_texture(g), grey, f;
+    cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
+    grey.convertTo(f, CV_32F);
+    levels.push_back(f);
+    while (levels.back().cols > 64) {
+      cv::Mat half;
+      cv::resize(levels.back(), half, cv::Size(levels.back().cols / 2, levels.back().rows / 2), 0,
+                 0, cv::INTER_AREA);
+      levels.push_back(half);
+    }
+  }
+  return levels;
+}
+
+// Supersampled ideal (undistorted) view on a canvas of `size` px whose pinhole is K.
+cv::Mat render_ideal_ss(const TargetGeometry& g, const Eigen::Matrix3d& K, cv::Size size,
+                        const Eigen::Isometry3d& X_CP, const SynthOptions& opt) {
+  const int S = opt.supersample;
+  const auto& levels = texture_levels(g);
+  // Texture level: texel no larger than the footprint of one sample on the nearest point.
+  double depth_min = 1e9;
+  for (double sx : {-1.0, 0.0, 1.0}) {
+    for (double sy : {-1.0, 0.0, 1.0}) {
+      const Eigen::Vector3d q =
+          X_CP * Eigen::Vector3d(0.5 * sx * g.platform_size_m.x(), 0.5 * sy * g.platform_size_m.y(), 0);
+      depth_min = std::min(depth_min, std::max(q.z(), 1e-3));
+    }
+  }
+  const double footprint_m = depth_min / (K(0, 0) * S);
+  const double texel_m = 1.0 / g.px_per_m();
+  int k = static_cast<int>(std::floor(std::log2(std::max(1.0, footprint_m / texel_m))));
+  k = std::clamp(k, 0, static_cast<int>(levels.size()) - 1);
+  const double f = std::ldexp(1.0, k), s = g.px_per_m();
+  Eigen::Matrix3d A;  // level-k texel -> platform (m)
+  A << f / s, 0, 0.5 * f / s - 0.5 * g.platform_size_m.x(), 0, -f / s,
+      0.5 * g.platform_size_m.y() - 0.5 * f / s, 0, 0, 1;
+  Eigen::Matrix3d T;  // image px -> supersample px
+  T << S, 0, 0.5 * S - 0.5, 0, S, 0.5 * S - 0.5, 0, 0, 1;
+  const Eigen::Matrix3d M = T * plane_homography(K, X_CP) * A;
+  cv::Mat Mcv(3, 3, CV_64F);
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) Mcv.at<double>(r, c) = M(r, c);
+  }
+  const float ground = static_cast<float>(opt.ground_grey * 255.0);
+  cv::Mat ss;
+  cv::warpPerspective(levels[k], ss, Mcv, cv::Size(size.width * S, size.height * S),
+                      cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(ground));
+  // Samples whose ray misses the plane in front of the camera (beyond the horizon) are ground.
+  const Eigen::Matrix3d Mi = M.inverse();
+  const Eigen::Vector3d ref = M * Eigen::Vector3d(0.5 * levels[k].cols, 0.5 * levels[k].rows, 1);
+  const double sref = (Mi.row(2) * ref) > 0 ? 1.0 : -1.0;
+  for (int y = 0; y < ss.rows; ++y) {
+    float* row = ss.ptr<float>(y);
+    for (int x = 0; x < ss.cols; ++x) {
+      if (sref * (Mi(2, 0) * x + Mi(2, 1) * y + Mi(2, 2)) <= 0) row[x] = ground;
+    }
+  }
+  return ss;
+}
+
+}  // namespace
+
+cv::Mat render_view(const TargetGeometry& g, const CameraModel& cam, const Eigen::Isometry3d& X_CP,
+                    const SynthOptions& opt) {
+  const int S = opt.supersample;
+  const cv::Size size(cam.width_px, cam.height_px);
+  cv::Mat ss;
+  if (!cam.has_distortion()) {
+    ss = render_ideal_ss(g, cam.K(), size, X_CP, opt);
+  } else {
+    // Ideal view on a padded canvas, then each supersample of the distorted frame looks up
+    // its undistorted position (cv::undistortPoints) in it.
+    const int pad = std::max(cam.width_px, cam.height_px) / 4;
+    Eigen::Matrix3d Kp = cam.K();
+    Kp(0, 2) += pad;
+    Kp(1, 2) += pad;
+    const cv::Mat ideal =
+        render_ideal_ss(g, Kp, cv::Size(size.width + 2 * pad, size.height + 2 * pad), X_CP, opt);
+    std::vector<cv::Point2f> src;
+    src.reserve(static_cast<std::size_t>(size.area()) * S * S);
+    for (int y = 0; y < size.height * S; ++y) {
+      for (int x = 0; x < size.width * S; ++x) {
+        src.emplace_back((x + 0.5f) / S - 0.5f, (y + 0.5f) / S - 0.5f);
+      }
+    }
+    const cv::Mat Kcv = (cv::Mat_<double>(3, 3) << cam.fx_px, 0, cam.cx_px, 0, cam.fy_px,
+                         cam.cy_px, 0, 0, 1);
+    const cv::Mat Dcv = (cv::Mat_<double>(1, 5) << cam.k1, cam.k2, cam.p1, cam.p2, cam.k3);
+    std::vector<cv::Point2f> und;
+    cv::undistortPoints(src, und, Kcv, Dcv, cv::noArray(), Kcv,
+                        cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 50, 1e-9));
+    cv::Mat mapx(size.height * S, size.width * S, CV_32F), mapy(mapx.size(), CV_32F);
+    for (int y = 0, i = 0; y < mapx.rows; ++y) {
+      for (int x = 0; x < mapx.cols; ++x, ++i) {
+        mapx.at<float>(y, x) = S * (und[i].x + pad + 0.5f) - 0.5f;
+        mapy.at<float>(y, x) = S * (und[i].y + pad + 0.5f) - 0.5f;
+      }
+    }
+    cv::remap(ideal, ss, mapx, mapy, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+              cv::Scalar(opt.ground_grey * 255.0));
+  }
+  cv::Mat img;
+  cv::resize(ss, img, size, 0, 0, cv::INTER_AREA);
+  if (opt.blur_px > 0) motion_blur(img, opt.blur_px, opt.blur_angle_deg);
+  if (opt.noise_sigma > 0) {
+    cv::RNG rng(opt.seed);
+    cv::Mat noise(img.size(), CV_32F);
+    rng.fill(noise, cv::RNG::NORMAL, 0.0, opt.noise_sigma);
+    img += noise;
+  }
+  cv::Mat out;
+  img.convertTo(out, CV_8U);
+  if (opt.bgr) cv::cvtColor(out, out, cv::COLOR_GRAY2BGR);
+  return out;
+}
+
+std::vector<Eigen::Vector2d> true_centres(const TargetGeometry& g, const CameraModel& cam,
+                                          const Eigen::Isometry3d& X_CP) {
+  std::vector<Eigen::Vector2d> out;
+  for (const auto& r : g.rings) {
+    const Eigen::Vector3d p = cam.K() * (X_CP * Eigen::Vector3d(r.centre_P_m.x(), r.centre_P_m.y(), 0));
+    out.push_back(p.head<2>() / p.z());
+  }
+  return out;
+}
+
+void motion_blur(cv::Mat& img, double length_px, double angle_deg) {
+  if (length_px <= 0) return;
+  const int n = 2 * static_cast<int>(std::ceil(0.5 * length_px)) + 3;
+  cv::Mat k = cv::Mat::zeros(n, n, CV_32F);
+  const double c = 0.5 * (n - 1), a = angle_deg * M_PI / 180;
+  const int steps = std::max(50, static_cast<int>(length_px * 20));
+  for (int i = 0; i <= steps; ++i) {
+    const double t = (static_cast<double>(i) / steps - 0.5) * length_px;
+    const double x = c + t * std::cos(a), y = c + t * std::sin(a);
+    const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+    const double fx = x - x0, fy = y - y0;
+    k.at<float>(y0, x0) += static_cast<float>((1 - fx) * (1 - fy));
+    k.at<float>(y0, x0 + 1) += static_cast<float>(fx * (1 - fy));
+    k.at<float>(y0 + 1, x0) += static_cast<float>((1 - fx) * fy);
+    k.at<float>(y0 + 1, x0 + 1) += static_cast<float>(fx * fy);
+  }
+  k /= cv::sum(k)[0];
+  cv::Mat src = img.clone();
+  cv::filter2D(src, img, -1, k, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
+}
+
+cv::Mat distractor_frame(const CameraModel& cam, std::uint64_t seed) {
+  cv::RNG rng(seed);
+  cv::Mat img(cam.height_px, cam.width_px, CV_8UC3, cv::Scalar(115, 115, 115));
+  constexpr int kShift = 4;  // sub-pixel drawing, 1/16 px
+  auto P = [&](double x, double y) {
+    return cv::Point(static_cast<int>(x * (1 << kShift)), static_cast<int>(y * (1 << kShift)));
+  };
+  auto R = [&](double r) { return static_cast<int>(r * (1 << kShift)); };
+  // Radius ratios far (> 0.04) from every model ring ratio (0.2, 0.3, ..., 0.75) and > 0.8.
+  const double bad_ratios[] = {0.25, 0.45, 0.86, 0.93};
+  for (int i = 0; i < 14; ++i) {
+    const double x = rng.uniform(60.0, cam.width_px - 60.0), y = rng.uniform(60.0, cam.height_px - 60.0);
+    const double Rr = rng.uniform(12.0, 50.0);
+    const cv::Scalar dark(20, 20, 20), light(235, 235, 235);
+    switch (i % 4) {
+      case 0:  // concentric annulus with a ratio of no ring set
+        cv::circle(img, P(x, y), R(Rr), dark, cv::FILLED, cv::LINE_AA, kShift);
+        cv::circle(img, P(x, y), R(Rr * bad_ratios[(i / 4) % 4]), light, cv::FILLED, cv::LINE_AA,
+                   kShift);
+        break;
+      case 1:  // disc
+        cv::circle(img, P(x, y), R(Rr), dark, cv::FILLED, cv::LINE_AA, kShift);
+        break;
+      case 2:  // light disc on a dark disc, off-centre (not concentric)
+        cv::circle(img, P(x, y), R(Rr), dark, cv::FILLED, cv::LINE_AA, kShift);
+        cv::circle(img, P(x + 0.45 * Rr, y), R(0.4 * Rr), light, cv::FILLED, cv::LINE_AA, kShift);
+        break;
+      default:  // thin circle outline
+        cv::circle(img, P(x, y), R(Rr), dark, 3, cv::LINE_AA, kShift);
+        break;
+    }
+  }
+  return img;
+}
+
+double rotation_error_rad(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return Eigen::AngleAxisd(a.linear().transpose() * b.linear()).angle();
+}
+
+double position_error_m(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return (a.translation() - b.translation()).norm();
+}
+
+}  // namespace lander::test

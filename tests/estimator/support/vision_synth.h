@@ -1,0 +1,58 @@
+// Synthetic camera frames of the ring target drawn with exact projective geometry, for the
+// vision tests: the texture of render_target_texture() warped by the homography
+// K [r1 r2 t] composed with the texture -> platform map, supersampled and box-filtered, so
+// the true projected centres (K X_CP c_P) and the true pose are known exactly.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include "lander/estimator/target.h"
+#include "lander/estimator/types.h"
+
+namespace lander::test {
+
+// models/target.yaml, loaded once.
+const TargetGeometry& default_target();
+
+// Pose X_CP of a camera looking at the point `aim_P_m` of the platform plane from height
+// `altitude_m` above the plane, its optical axis tilted `tilt_deg` from the platform normal
+// (towards azimuth `azimuth_deg` in P), rotated `yaw_deg` about its optical axis.
+Eigen::Isometry3d look_at_pose(double altitude_m, double tilt_deg, double yaw_deg,
+                               double azimuth_deg = 0.0,
+                               const Eigen::Vector2d& aim_P_m = Eigen::Vector2d::Zero());
+
+struct SynthOptions {
+  int supersample{3};          ///< samples per pixel side (box filter)
+  double ground_grey{0.45};    ///< grey level outside the platform (0..1)
+  double noise_sigma{0.0};     ///< additive Gaussian noise (grey levels of 255)
+  double blur_px{0.0};         ///< linear motion-blur length (px), 0 = none
+  double blur_angle_deg{0.0};  ///< motion direction in the image (deg from +u)
+  std::uint64_t seed{1};       ///< noise seed
+  bool bgr{true};              ///< 3-channel output (else grey)
+};
+
+// A frame of `camera` (distortion applied when the model has any) seeing the target at X_CP.
+cv::Mat render_view(const TargetGeometry& g, const CameraModel& camera,
+                    const Eigen::Isometry3d& X_CP, const SynthOptions& opt = {});
+
+// True projected ring centres (undistorted px), by ring id order of g.rings.
+std::vector<Eigen::Vector2d> true_centres(const TargetGeometry& g, const CameraModel& camera,
+                                          const Eigen::Isometry3d& X_CP);
+
+// Applies a linear motion blur of `length_px` along `angle_deg` (in place).
+void motion_blur(cv::Mat& img, double length_px, double angle_deg);
+
+// A 1280x720 frame of grey ground with dark and light discs and annuli whose radius ratios
+// match no ring set, some of them concentric.
+cv::Mat distractor_frame(const CameraModel& camera, std::uint64_t seed);
+
+// Rotation angle between two rotations (rad) and position distance (m).
+double rotation_error_rad(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b);
+double position_error_m(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b);
+
+}  // namespace lander::test
