@@ -1,0 +1,189 @@
+// Seed 000 eq. 25-29: polynomial fit and prediction of the platform, cubic approach
+// trajectory; the waypoint script built on it.
+#include "lander/controller/trajectory.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "lander/controller/platform_tracker.h"
+
+namespace lander::ctl {
+namespace {
+
+// Noise-free fits are exact up to the QR's round-off on a 100-sample problem.
+constexpr double kExactFitTol_m = 1e-7;
+
+// A known quartic per axis (m, t in s).
+Eigen::Vector3d quartic(double t) {
+  return {1.0 + 0.5 * t - 0.02 * t * t + 0.003 * t * t * t - 1e-4 * t * t * t * t,
+          -2.0 + 0.1 * t + 0.01 * t * t, 0.8 + 0.0 * t};
+}
+
+TEST(PolynomialFit3, RecoversAKnownQuarticAndItsCoefficients) {
+  std::vector<double> t;
+  std::vector<Eigen::Vector3d> p;
+  for (int i = 0; i < 100; ++i) {
+    t.push_back(10.0 + i / 30.0);  // 30 Hz, starting at t = 10 s
+    p.push_back(quartic(t.back()));
+  }
+  PolynomialFit3 fit;
+  fit.fit(t, p, 4);
+  ASSERT_TRUE(fit.valid());
+  EXPECT_LT(fit.rms_residual_m(), kExactFitTol_m);
+  // Coefficients a_k of eq. 25 about t0 = 0 s.
+  const Eigen::MatrixXd a = fit.coefficients_about(0.0);
+  EXPECT_NEAR(a(0, 0), 1.0, 1e-5);
+  EXPECT_NEAR(a(0, 1), 0.5, 1e-5);
+  EXPECT_NEAR(a(0, 2), -0.02, 1e-6);
+  EXPECT_NEAR(a(0, 3), 0.003, 1e-7);
+  EXPECT_NEAR(a(0, 4), -1e-4, 1e-8);
+  EXPECT_NEAR(a(1, 2), 0.01, 1e-6);
+  // Prediction (eq. 28 without epsilon) 1 s past the data.
+  const double td = t.back() + 1.0;
+  EXPECT_NEAR((fit.position(td) - quartic(td)).norm(), 0.0, kExactFitTol_m);
+  // Velocity: derivative of the quartic, by central difference of the truth (1e-6 s step).
+  const Eigen::Vector3d v_true = (quartic(td + 1e-6) - quartic(td - 1e-6)) / 2e-6;
+  EXPECT_NEAR((fit.velocity(td) - v_true).norm(), 0.0, 1e-6);
+}
+
+TEST(PolynomialFit3, RejectsTooFewSamples) {
+  PolynomialFit3 fit;
+  EXPECT_THROW(fit.fit({0.0, 0.1, 0.2}, {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(),
+                                        Eigen::Vector3d::Zero()},
+                       4),
+               std::invalid_argument);
+}
+
+// Platform tracker on a synthetic stream: camera straight down over a moving platform.
+// nav: vehicle at height h above the platform, level, camera looking down.
+struct Stream {
+  TrackerParams tp;
+  CameraMount mount;
+  PlatformTracker tracker{tp, mount};
+  std::mt19937 rng{3};
+  // Feeds a keyframe of a platform at p_WP seen from a vehicle at p_WB (level, yaw 0).
+  void feed(double t, const Eigen::Vector3d& p_WB, const Eigen::Vector3d& p_WP, double noise_m) {
+    NavState nav;
+    nav.t_s = t;
+    nav.valid = true;
+    nav.p_W_m = p_WB;
+    tracker.add_nav(nav);
+    Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
+    X_WB.translation() = p_WB;
+    Eigen::Isometry3d X_WP = Eigen::Isometry3d::Identity();
+    X_WP.translation() = p_WP;
+    PlatformObservation obs;
+    obs.t_s = t;
+    obs.detected = true;
+    obs.keyframe = true;
+    obs.X_CP = (X_WB * mount.X_BC()).inverse() * X_WP;
+    std::normal_distribution<double> n(0.0, noise_m);
+    obs.X_CP.translation() += Eigen::Vector3d(n(rng), n(rng), n(rng));
+    tracker.add_observation(obs);
+  }
+};
+
+TEST(PlatformTracker, Eq24PutsThePlatformBackInTheWorld) {
+  // A tilted, yawed vehicle: eq. 24 must undo the rotation and the camera lever arm.
+  const CameraMount mount;
+  NavState nav;
+  nav.valid = true;
+  nav.p_W_m = Eigen::Vector3d(3.0, -1.0, 6.0);
+  nav.q_WB = Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ()) *
+             Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitX());
+  Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
+  X_WB.linear() = nav.q_WB.toRotationMatrix();
+  X_WB.translation() = nav.p_W_m;
+  Eigen::Isometry3d X_WP = Eigen::Isometry3d::Identity();
+  X_WP.translation() = Eigen::Vector3d(4.0, 0.5, 0.8);
+  X_WP.linear() = Eigen::AngleAxisd(0.05, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  PlatformObservation obs;
+  obs.detected = obs.keyframe = true;
+  obs.X_CP = (X_WB * mount.X_BC()).inverse() * X_WP;
+  const PlatformFix f = PlatformTracker::fix_from(obs, nav, mount.X_BC());
+  // Pure geometry: round-off only.
+  EXPECT_NEAR((f.p_W_m - X_WP.translation()).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((f.n_W - X_WP.linear().col(2)).norm(), 0.0, 1e-12);
+}
+
+TEST(PlatformTracker, PredictsAConstantVelocityPlatformWithNoise) {
+  Stream s;
+  const Eigen::Vector3d v(0.5, -0.2, 0.0);
+  for (int i = 0; i < 80; ++i) {  // the paper's 80 frames at 30 Hz
+    const double t = i / 30.0;
+    const Eigen::Vector3d p_WP = Eigen::Vector3d(0, 0, 0.8) + v * t;
+    s.feed(t, p_WP + Eigen::Vector3d(0, 0, 5.0), p_WP, 0.01);
+  }
+  ASSERT_EQ(s.tracker.num_fixes(), 80);
+  ASSERT_EQ(s.tracker.fit().order(), 4);
+  const double t_last = 79 / 30.0;
+  // Short horizon: the quartic itself (eq. 28). With 1 cm noise a quartic extrapolated
+  // 0.5 s from a 2.6 s window has a sigma of ~5 cm; 15 cm is three sigma.
+  const double t_short = t_last + 0.5;
+  EXPECT_LT((s.tracker.predict(t_short) - (Eigen::Vector3d(0, 0, 0.8) + v * t_short)).norm(),
+            0.15);
+  // Long horizon: the linear continuation keeps the error bounded (velocity error ~1 cm/s
+  // times 4 s plus the edge error); 30 cm.
+  const double t_long = t_last + 5.0;
+  EXPECT_LT((s.tracker.predict(t_long) - (Eigen::Vector3d(0, 0, 0.8) + v * t_long)).norm(), 0.30);
+  // Velocity from the last second: 1 cm noise over 30 samples and 1 s -> ~2 cm/s sigma.
+  EXPECT_LT((s.tracker.velocity() - v).norm(), 0.06);
+}
+
+TEST(PlatformTracker, NonKeyframesAndMissesDoNotMakeFixes) {
+  Stream s;
+  s.feed(0.0, Eigen::Vector3d(0, 0, 5), Eigen::Vector3d(0, 0, 0.8), 0.0);
+  PlatformObservation blurred;
+  blurred.t_s = 0.1;
+  blurred.detected = true;
+  blurred.keyframe = false;
+  EXPECT_FALSE(s.tracker.add_observation(blurred));
+  EXPECT_EQ(s.tracker.num_fixes(), 1);
+  EXPECT_DOUBLE_EQ(s.tracker.last_detection_t(), 0.1);  // still "in view"
+  PlatformObservation miss;
+  miss.t_s = 0.2;
+  EXPECT_FALSE(s.tracker.add_observation(miss));
+  EXPECT_EQ(s.tracker.keyframe_streak(), 0);
+}
+
+TEST(CubicTrajectory, MeetsTheBoundaryConditionsOfEq29) {
+  const Eigen::Vector3d p0(-5, 1, 10), pd(2, 0.5, 2.3);
+  const CubicTrajectory c(p0, 4.0, pd, 11.0);
+  constexpr double kTol = 1e-12;  // closed-form polynomial: round-off only
+  EXPECT_NEAR((c.position(4.0) - p0).norm(), 0.0, kTol);
+  EXPECT_NEAR((c.position(11.0) - pd).norm(), 0.0, kTol);
+  EXPECT_NEAR(c.velocity(4.0 + 1e-12).norm(), 0.0, 1e-9);
+  EXPECT_NEAR(c.velocity(11.0 - 1e-12).norm(), 0.0, 1e-9);
+  // Midpoint: half way, peak speed 1.5 |Diff| / T_d.
+  EXPECT_NEAR((c.position(7.5) - 0.5 * (p0 + pd)).norm(), 0.0, kTol);
+  EXPECT_NEAR(c.velocity(7.5).norm(), 1.5 * (pd - p0).norm() / 7.0, 1e-12);
+  // Derivatives agree with finite differences of the position (1e-5 s step, O(h^2)).
+  for (double t : {5.0, 6.3, 9.9}) {
+    const Eigen::Vector3d fd_v = (c.position(t + 1e-5) - c.position(t - 1e-5)) / 2e-5;
+    const Eigen::Vector3d fd_a = (c.velocity(t + 1e-5) - c.velocity(t - 1e-5)) / 2e-5;
+    EXPECT_NEAR((c.velocity(t) - fd_v).norm(), 0.0, 1e-7);
+    EXPECT_NEAR((c.acceleration(t) - fd_a).norm(), 0.0, 1e-6);
+  }
+  // Outside [t_0, t_d] it holds its ends.
+  EXPECT_NEAR((c.position(0.0) - p0).norm(), 0.0, kTol);
+  EXPECT_NEAR((c.position(20.0) - pd).norm(), 0.0, kTol);
+  EXPECT_THROW(CubicTrajectory(p0, 3.0, pd, 3.0), std::invalid_argument);
+}
+
+TEST(WaypointScript, HoldsThenFliesLegsAndHoldsTheLastWaypoint) {
+  WaypointScript s(Eigen::Vector3d(0, 0, 5), 0.3, 1.0);
+  s.go_to(Eigen::Vector3d(3, 4, 5), 1.0, 2.0);  // 5 m at 1 m/s: t = 1..6, hold to 8
+  s.go_to(Eigen::Vector3d(3, 4, 2), 0.5);       // 3 m at 0.5 m/s: t = 8..14
+  EXPECT_NEAR((s.at(0.5).p_W_m - Eigen::Vector3d(0, 0, 5)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((s.at(3.5).p_W_m - Eigen::Vector3d(1.5, 2, 5)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((s.at(7.0).p_W_m - Eigen::Vector3d(3, 4, 5)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((s.at(11.0).p_W_m - Eigen::Vector3d(3, 4, 3.5)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((s.at(30.0).p_W_m - Eigen::Vector3d(3, 4, 2)).norm(), 0.0, 1e-12);
+  EXPECT_DOUBLE_EQ(s.at(30.0).yaw_rad, 0.3);
+  EXPECT_DOUBLE_EQ(s.end_time(), 14.0);
+}
+
+}  // namespace
+}  // namespace lander::ctl
