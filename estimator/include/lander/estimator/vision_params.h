@@ -50,7 +50,8 @@ struct VisionParams {
   double max_edge_residual_px{1.5};  ///< conic-cost RMS above this rejects the frame (px)
 
   // ---- keyframes (eq. 17-18) ----
-  double rho_max{0.01};              ///< reliability threshold on rho (dimensionless)
+  double rho_max{1e-3};              ///< reliability threshold on rho (dimensionless): about a
+                                     ///< 4.5 % change of the unit pose vector (rho ~ dI^2 / 2)
   int keyframe_reset_after{5};       ///< after this many consecutive rejections, restart
 
   // ---- tracking ----
