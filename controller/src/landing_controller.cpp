@@ -244,7 +244,9 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       }
       diag_.approach_goal_W_m = approach_.goal();
       diag_.approach_diff_m = horizontal(approach_.goal() - nav.p_W_m);
-      if (t_s >= approach_.td()) {
+      // Recovery servos on vision, so it is entered only with a fresh detection; otherwise
+      // the approach holds P_d until the target is back or the loss timeout fires.
+      if (t_s >= approach_.td() && in_view(t_s, L.recovery_loss_timeout_s)) {
         if (diag_.approach_diff_m < L.approach_switch_error_m) {
           switch_to(t_s, Mode::kRecovery,
                     fmt("|Diff| = %.3f m < %.3f m at t >= t_d", diag_.approach_diff_m,

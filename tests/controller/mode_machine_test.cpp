@@ -1,0 +1,252 @@
+// Mode machine of seed 000 section 3 on synthetic observation streams.
+//
+// Most tests use a kinematic vehicle that sits exactly on the controller's setpoint (so the
+// mode logic is tested apart from the flight dynamics) and a synthetic camera (support/).
+// The go-around-when-lost-low test flies the rigid-body model in closed loop.
+#include "lander/controller/landing_controller.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <iostream>
+#include <string>
+
+#include "support/hex_model.h"
+
+namespace lander::ctl::test {
+namespace {
+
+constexpr double kG = 9.81;
+
+// Given a controller and a platform, moves a point-mass vehicle onto each setpoint; after
+// the motor cut it falls under gravity onto the platform (or forever if `solid` is false).
+struct KinematicRun {
+  ControllerParams params;
+  PlatformTruth platform;
+  Eigen::Vector3d start{-2.0, 0.5, 8.0};
+  double max_time_s{60.0};
+  bool solid{true};  // the platform top stops the fall
+  std::function<bool(double, const Eigen::Isometry3d&)> visible;
+  std::function<bool(int frame)> keyframe = [](int) { return true; };
+  std::function<Eigen::Vector3d(double)> platform_jump = [](double) {
+    return Eigen::Vector3d::Zero();
+  };
+  std::function<bool(const LandingController&)> stop_when;
+
+  // Outputs.
+  std::vector<ModeTransition> transitions;
+  int keyframes_before_approach{-1};
+  bool landed{false};
+  double final_offset_m{0.0};
+
+  void run() {
+    LandingController ctl(params, CameraMount{});
+    VisionModelParams vp;
+    vp.latency_s = 0.05;
+    SyntheticVision vision(vp, CameraMount{}, CameraModel{});
+    vision.visible = visible;
+    Eigen::Vector3d p = start, v = Eigen::Vector3d::Zero();
+    double yaw = 0.0;
+    bool resting = false;
+    double imu_z = kG;  // specific force along z_B read at the next step (m/s^2)
+    int frame = 0, keyframes = 0;
+    constexpr double dt = 0.004;  // 250 Hz: vision and controller on the same clock
+    for (int i = 0; i * dt < max_time_s; ++i) {
+      const double t = i * dt;
+      Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
+      X_WB.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+      X_WB.translation() = p;
+      Eigen::Isometry3d X_WP = Eigen::Isometry3d::Identity();
+      X_WP.translation() = platform.p_W(t) + platform_jump(t);
+      vision.update(t, X_WB, X_WP);
+      for (PlatformObservation obs : vision.deliver(t)) {
+        obs.keyframe = obs.detected && keyframe(frame++);
+        if (obs.keyframe) ++keyframes;
+        ctl.on_vision(obs);
+      }
+      NavState nav;
+      nav.t_s = t;
+      nav.valid = true;
+      nav.p_W_m = p;
+      nav.v_W_mps = v;
+      nav.q_WB = Eigen::Quaterniond(X_WB.linear());
+      ImuSample imu;
+      imu.t_s = t;
+      imu.accel_B_mps2 = Eigen::Vector3d(0, 0, imu_z);
+      const Mode before = ctl.mode();
+      const RotorCommand cmd = ctl.step(t, nav, imu);
+      if (before != Mode::kApproach && ctl.mode() == Mode::kApproach &&
+          keyframes_before_approach < 0) {
+        keyframes_before_approach = keyframes;
+      }
+      if (!cmd.motors_cut) {
+        // Perfect tracking: the vehicle sits on the setpoint; hovering reads +g.
+        resting = false;
+        p = ctl.diagnostics().setpoint.p_W_m;
+        v = ctl.diagnostics().setpoint.v_W_mps;
+        yaw = ctl.diagnostics().setpoint.yaw_rad;
+        imu_z = kG;
+      } else if (!resting) {
+        // Motors cut: free fall (reads 0) until the gear meets the platform top.
+        v.z() -= kG * dt;
+        p += v * dt;
+        imu_z = 0.0;
+        const Eigen::Vector3d top = platform.p_W(t);
+        if (solid && p.z() - params.landing.gear_height_m <= top.z()) {
+          resting = true;
+          final_offset_m = (p - top).head<2>().norm();
+        }
+      }
+      if (resting) {  // carried by the cart, reads +g
+        p += platform.v_W_mps * dt;
+        v = platform.v_W_mps;
+        imu_z = kG;
+      }
+      if (ctl.landed() || (stop_when && stop_when(ctl))) break;
+    }
+    transitions = ctl.transitions();
+    landed = ctl.landed();
+  }
+};
+
+std::string describe(const std::vector<ModeTransition>& trs) {
+  std::string s;
+  for (const ModeTransition& tr : trs) {
+    s += "  t=" + std::to_string(tr.t_s) + " " + to_string(tr.from) + " -> " + to_string(tr.to) +
+         ": " + tr.reason + "\n";
+  }
+  return s;
+}
+
+std::vector<Mode> targets(const std::vector<ModeTransition>& trs) {
+  std::vector<Mode> out;
+  for (const ModeTransition& tr : trs) out.push_back(tr.to);
+  return out;
+}
+
+}  // namespace
+}  // namespace lander::ctl::test
+
+namespace lander::ctl::test {
+namespace {
+
+TEST(ModeMachine, ObserveApproachRecoveryTouchdownInOrder) {
+  KinematicRun run;
+  run.platform.v_W_mps = Eigen::Vector3d(0.5, 0.0, 0.0);
+  run.run();
+  SCOPED_TRACE(describe(run.transitions));
+  std::cout << describe(run.transitions);
+  const std::vector<Mode> expected = {Mode::kObserve, Mode::kApproach, Mode::kRecovery,
+                                      Mode::kTouchdown, Mode::kLanded};
+  EXPECT_EQ(targets(run.transitions), expected);
+  // seed 000 section 3.2: approach after exactly 80 observed keyframes.
+  EXPECT_EQ(run.keyframes_before_approach, 80);
+  EXPECT_TRUE(run.landed);
+  // Perfect tracking and noise of a few mm: the cut happens within the 5 cm criterion and
+  // the fall keeps the horizontal offset.
+  EXPECT_LT(run.final_offset_m, 0.05);
+  // Every transition has a reason and non-decreasing time.
+  for (std::size_t i = 0; i < run.transitions.size(); ++i) {
+    EXPECT_FALSE(run.transitions[i].reason.empty());
+    if (i > 0) {
+      EXPECT_GE(run.transitions[i].t_s, run.transitions[i - 1].t_s);
+    }
+  }
+}
+
+TEST(ModeMachine, BlurredFramesDoNotCountTowardsTheEightyKeyframes) {
+  KinematicRun run;
+  run.keyframe = [](int frame) { return frame % 2 == 0; };  // every other frame blurred
+  run.stop_when = [](const LandingController& c) { return c.mode() == Mode::kApproach; };
+  run.run();
+  SCOPED_TRACE(describe(run.transitions));
+  std::cout << describe(run.transitions);
+  EXPECT_EQ(run.keyframes_before_approach, 80);
+  ASSERT_GE(run.transitions.size(), 2u);
+  EXPECT_EQ(run.transitions[1].to, Mode::kApproach);
+  // 80 keyframes at 15 Hz take at least 80 / 15 s (minus the ~0.1 s of acquisition).
+  EXPECT_GT(run.transitions[1].t_s - run.transitions[0].t_s, 80.0 / 15.0 - 0.5);
+}
+
+TEST(ModeMachine, LossWhileObservingHighGoesToSearchAndReacquires) {
+  KinematicRun run;
+  run.visible = [](double t, const Eigen::Isometry3d&) { return t < 1.5 || t > 4.0; };
+  run.stop_when = [](const LandingController& c) { return c.mode() == Mode::kApproach; };
+  run.run();
+  SCOPED_TRACE(describe(run.transitions));
+  std::cout << describe(run.transitions);
+  const std::vector<Mode> expected = {Mode::kObserve, Mode::kSearch, Mode::kObserve,
+                                      Mode::kApproach};
+  EXPECT_EQ(targets(run.transitions), expected);
+  // The loss is declared after loss_timeout_s (1 s) without detection (+ one outer tick).
+  ASSERT_GE(run.transitions.size(), 2u);
+  EXPECT_NEAR(run.transitions[1].t_s, 1.5 + 1.0, 0.1);
+}
+
+TEST(ModeMachine, PlatformJumpInRecoveryTriggersGoAround) {
+  KinematicRun run;
+  double t_recovery = -1.0;
+  // Once recovery has run for a second, the platform (as seen) shifts by 1 m.
+  run.platform_jump = [&](double t) {
+    return (t_recovery > 0 && t > t_recovery + 1.0) ? Eigen::Vector3d(1.0, 0.0, 0.0)
+                                                    : Eigen::Vector3d::Zero();
+  };
+  run.stop_when = [&](const LandingController& c) {
+    if (c.mode() == Mode::kRecovery && t_recovery < 0) t_recovery = c.transitions().back().t_s;
+    return c.mode() == Mode::kGoAround;
+  };
+  run.run();
+  SCOPED_TRACE(describe(run.transitions));
+  std::cout << describe(run.transitions);
+  ASSERT_FALSE(run.transitions.empty());
+  EXPECT_EQ(run.transitions.back().from, Mode::kRecovery);
+  EXPECT_EQ(run.transitions.back().to, Mode::kGoAround);
+  EXPECT_NE(run.transitions.back().reason.find("horizontal error"), std::string::npos);
+}
+
+TEST(ModeMachine, NoContactAfterTheCutRestartsAndGoesAround) {
+  KinematicRun run;
+  run.solid = false;  // nothing to land on: the IMU never reads +g after the cut
+  run.stop_when = [](const LandingController& c) { return c.mode() == Mode::kGoAround; };
+  run.run();
+  SCOPED_TRACE(describe(run.transitions));
+  std::cout << describe(run.transitions);
+  ASSERT_GE(run.transitions.size(), 2u);
+  const ModeTransition& last = run.transitions.back();
+  EXPECT_EQ(last.from, Mode::kTouchdown);
+  EXPECT_EQ(last.to, Mode::kGoAround);
+  EXPECT_NE(last.reason.find("no contact"), std::string::npos);
+  // contact_timeout_s after the cut.
+  const ModeTransition& cut = run.transitions[run.transitions.size() - 2];
+  EXPECT_NEAR(last.t_s - cut.t_s, ControllerParams{}.landing.contact_timeout_s, 0.01);
+}
+
+TEST(ModeMachine, GoAroundWhenTheTargetIsLostLowThenLands) {
+  // Closed loop on the rigid-body model: vision goes blind for 3 s the first time the
+  // vehicle is below 2.5 m; it must climb back, re-acquire and still land.
+  LandingRunConfig cfg;
+  cfg.platform.v_W_mps = Eigen::Vector3d(0.3, 0.0, 0.0);
+  cfg.start_W_m = Eigen::Vector3d(-2.0, 0.0, 8.0);
+  double blind_from = -1.0;
+  cfg.visible = [&](double t, const Eigen::Isometry3d& X_WB) {
+    if (blind_from < 0 && X_WB.translation().z() < 2.5) blind_from = t;
+    return !(blind_from >= 0 && t < blind_from + 3.0);
+  };
+  const LandingRunResult r = run_landing(cfg);
+  SCOPED_TRACE(r.describe());
+  std::cout << r.describe();
+  const std::vector<Mode> seen = targets(r.transitions);
+  auto it = std::find(seen.begin(), seen.end(), Mode::kGoAround);
+  ASSERT_NE(it, seen.end()) << "no go-around";
+  const ModeTransition& ga = r.transitions[it - seen.begin()];
+  EXPECT_NE(ga.reason.find("lost"), std::string::npos);
+  // After the go-around: observe (or search then observe) again, and finally landed.
+  EXPECT_NE(std::find(it, seen.end(), Mode::kObserve), seen.end());
+  EXPECT_EQ(seen.back(), Mode::kLanded);
+  EXPECT_TRUE(r.on_platform);
+  EXPECT_LT(r.touchdown_offset_m, 0.05);  // the 5 cm
+}
+
+}  // namespace
+}  // namespace lander::ctl::test
