@@ -52,6 +52,7 @@ void AltitudeFusionParams::validate() const {
   require(step_min_m > 0, "step_min_m", "must be > 0");
   require(step_count >= 1 && step_count <= 8, "step_count", "must be in 1..8");
   require(step_agree_m > 0, "step_agree_m", "must be > 0");
+  require(surface_step_max_m > step_min_m, "surface_step_max_m", "must be > step_min_m");
   require(max_sample_age_s > 0, "max_sample_age_ms", "must be > 0");
 }
 
@@ -81,6 +82,8 @@ void AltitudeFusion::reset(double t_s, double z_W_m, double surface_W_m, double 
   P_(kPlane, kPlane) = p_.platform_height_std_m * p_.platform_height_std_m;
   low_set_ = (z_W_m - surface_W_m) < p_.switch_height_m;
   step_n_ = 0;
+  us_suspect_ = false;
+  us_run_ = 0;
 }
 
 void AltitudeFusion::set_attitude(const Eigen::Quaterniond& q_WB) {
@@ -202,21 +205,62 @@ void AltitudeFusion::rereference_surface(double h_mean_m, double var_m2) {
   P_(kSurface, kSurface) = P_(kZ, kZ) + var_m2;
 }
 
+bool AltitudeFusion::collect_step(double h_now_m, double* mean_m, double* var_m2) {
+  if (step_n_ > 0 && std::abs(h_now_m - step_buf_[step_n_ - 1]) > p_.step_agree_m) step_n_ = 0;
+  step_buf_[step_n_++] = h_now_m;
+  if (step_n_ < p_.step_count) return false;
+  double mean = 0.0;
+  for (int i = 0; i < step_n_; ++i) mean += step_buf_[i];
+  mean /= step_n_;
+  double spread2 = 0.0;
+  for (int i = 0; i < step_n_; ++i) spread2 += (step_buf_[i] - mean) * (step_buf_[i] - mean);
+  *mean_m = mean;
+  *var_m2 = p_.ultrasonic_std_m * p_.ultrasonic_std_m / step_n_ + spread2 / step_n_;
+  step_n_ = 0;
+  return true;
+}
+
 AltitudeFusion::Outcome AltitudeFusion::update_ultrasonic(const UltrasonicSample& s) {
   if (!age_ok(s.t_s)) return Outcome::kRejectedStale;
-  if (!low_set_) return Outcome::kRejectedSet;  // eq. 17 set only
   // Eq. 12: outside the valid range the reading is unbounded garbage.
   if (!std::isfinite(s.range_m) || s.range_m < p_.ultrasonic_min_m ||
       s.range_m > p_.ultrasonic_max_m) {
+    step_n_ = 0;
+    us_suspect_ = true;
+    us_run_ = 0;
     return Outcome::kRejectedRange;
   }
+  const double age = std::max(0.0, t_s_ - s.t_s);
   const double h_c = s.range_m * cos_tilt_;  // slant range to vertical height
+  const double h_now = h_c + x_[kVz] * age;  // compensated to now by the predicted motion
+  double mean, var;
+  if (!low_set_) {
+    // Eq. 15 set in force: the reading is only a candidate for acquiring the surface below
+    // (coming down into range). step_count agreeing in-range readings that imply a plausible
+    // surface switch to the eq. 17 set and re-reference s (s was not observed up there).
+    const double implied_jump = std::abs((x_[kZ] - h_now) - x_[kSurface]);
+    if (implied_jump > p_.surface_step_max_m) {
+      step_n_ = 0;
+      return Outcome::kRejectedSet;
+    }
+    if (!collect_step(h_now, &mean, &var)) return Outcome::kRejectedSet;
+    rereference_surface(mean, var);
+    low_set_ = true;
+    us_suspect_ = false;
+    us_run_ = 0;
+    return Outcome::kSurfaceStep;
+  }
   const double R = p_.ultrasonic_std_m * p_.ultrasonic_std_m;
-  const Row H = row({{kZ, 1.0}, {kSurface, -1.0}}, t_s_ - s.t_s);
+  const Row H = row({{kZ, 1.0}, {kSurface, -1.0}}, age);
   double r, S;
   residual(H, h_c, R, &r, &S);
   if (std::abs(r) <= p_.gate_sigma * std::sqrt(S)) {
     step_n_ = 0;
+    // After garbage, a reading that happens to fall inside the gate is not trusted until
+    // step_count consecutive readings pass it (the sensor is back on the surface).
+    if (us_suspect_ && ++us_run_ < p_.step_count) return Outcome::kStepPending;
+    us_suspect_ = false;
+    us_run_ = 0;
     apply(H, r, R, 1.0);
     update_set();
     return Outcome::kAccepted;
@@ -227,21 +271,17 @@ AltitudeFusion::Outcome AltitudeFusion::update_ultrasonic(const UltrasonicSample
     update_set();
     return Outcome::kGated;
   }
-  // Large residual: a surface step (platform edge) or garbage. Collect the height above the
-  // surface it implies (h_c, compensated to now by the predicted motion) and look for
-  // step_count consecutive values that agree.
-  const double h_now = h_c + x_[kVz] * std::max(0.0, t_s_ - s.t_s);
-  if (step_n_ > 0 && std::abs(h_now - step_buf_[step_n_ - 1]) > p_.step_agree_m) step_n_ = 0;
-  step_buf_[step_n_++] = h_now;
-  if (step_n_ < p_.step_count) return Outcome::kStepPending;
-  double mean = 0.0;
-  for (int i = 0; i < step_n_; ++i) mean += step_buf_[i];
-  mean /= step_n_;
-  double spread2 = 0.0;
-  for (int i = 0; i < step_n_; ++i) spread2 += (step_buf_[i] - mean) * (step_buf_[i] - mean);
-  spread2 /= step_n_;
-  rereference_surface(mean, R / step_n_ + spread2);
-  step_n_ = 0;
+  // Large residual: a surface step (platform edge) or garbage. Not applied; step_count
+  // consecutive agreeing values re-reference the surface instead of moving z.
+  us_suspect_ = true;
+  us_run_ = 0;
+  if (std::abs(r) > p_.surface_step_max_m) {
+    step_n_ = 0;
+    return Outcome::kStepPending;
+  }
+  if (!collect_step(h_now, &mean, &var)) return Outcome::kStepPending;
+  rereference_surface(mean, var);
+  us_suspect_ = false;
   update_set();
   return Outcome::kSurfaceStep;
 }

@@ -43,33 +43,35 @@ struct AltitudeFusionParams {
   double ultrasonic_std_m{0.005};
   double vision_std_m{0.05};        ///< used when update_vision is called without a std
   // Process noise (Q, eq. 21), as continuous-time densities.
-  double accel_noise_mps2{0.1};     ///< white vertical-accel noise density (m/s^2/sqrt(Hz))
+  double accel_noise_mps2{0.03};    ///< white vertical-accel noise density (m/s^2/sqrt(Hz))
   double accel_bias_rw_mps3{0.01};  ///< vertical accel bias random walk (m/s^2/sqrt(s))
   double baro_bias_rw_mps{0.01};    ///< baro bias drift, random walk (m/sqrt(s))
-  double surface_rw_mps{0.1};       ///< surface height below changes (terrain) (m/sqrt(s))
+  double surface_rw_mps{0.02};      ///< surface height below changes (terrain) (m/sqrt(s))
   double platform_rw_mps{0.002};    ///< target plane height (cart bounces) (m/sqrt(s))
   // Initial uncertainty (P_0).
   double initial_baro_bias_std_m{3.0};
   double initial_accel_bias_std_mps2{0.2};
   double platform_height_m{0.8};      ///< prior height of the target plane in W (m)
-  double platform_height_std_m{0.05}; ///< its std (m)
+  double platform_height_std_m{0.02}; ///< its std (m): a surveyed, modelled platform
   // Measurement-set switch (eq. 15-18): below this estimated height above the surface the
   // ultrasonic set (eq. 17) is used, above it the baro set (eq. 15).
   double switch_height_m{3.0};
   double switch_hysteresis_m{0.1};
   // Ultrasonic readings outside [min, max] are rejected (seed 004 eq. 12: garbage).
   double ultrasonic_min_m{0.15};
-  double ultrasonic_max_m{3.0};
+  double ultrasonic_max_m{3.05};
   // Residual gate (eq. 27): a residual component beyond gate_sigma * sqrt(P~) has its gain
   // multiplied by gate_factor_n (the paper's n in [0, 1], 2 sigma in the paper).
   double gate_sigma{2.0};
   double gate_factor_n{0.1};
-  // Surface-step detector for the range sensors (platform edge): a gated ultrasonic residual
-  // of at least step_min_m starts a candidate step; step_count consecutive ones that agree
-  // within step_agree_m re-reference the surface instead of moving the height.
-  double step_min_m{0.3};
+  // Surface-step detector for the ultrasonic (platform edge, and acquisition when coming
+  // down into range): a gated residual of at least step_min_m is a step candidate;
+  // step_count consecutive candidates whose heights agree within step_agree_m re-reference
+  // the surface instead of moving the height. Steps above surface_step_max_m are garbage.
+  double step_min_m{0.1};
   int step_count{3};
   double step_agree_m{0.05};
+  double surface_step_max_m{2.0};
   // Latency compensation: a sample older than this is dropped (s).
   double max_sample_age_s{0.5};
 
@@ -101,6 +103,7 @@ void visit_fields(V& v, AltitudeFusionParams& p) {
   v("step_min_m", p.step_min_m);
   v("step_count", p.step_count);
   v("step_agree_m", p.step_agree_m);
+  v("surface_step_max_m", p.surface_step_max_m);
   v("max_sample_age_ms", p.max_sample_age_s, 1e-3);
 }
 
@@ -136,12 +139,18 @@ double vertical_accel_W(const ImuSample& imu, const Eigen::Quaterniond& q_WB,
 //
 // Platform edge: ultrasonic measures z - s, not z, so when the vehicle crosses the edge the
 // reading jumps by the platform height while z does not move. The jump is a large residual,
-// gated by eq. 27 and offered to a step detector; step_count consecutive agreeing residuals
-// re-reference s by their mean (s -= mean residual, with P_ss inflated by the spread),
-// leaving z and vz untouched, so the height in W shows no spike and the height above the
-// surface jumps as the truth does. Gated residuals smaller than step_min_m get n K.
-// Between ultrasonic contacts s random-walks (surface_rw_mps), so when the vehicle comes
-// down into range over unknown ground the first readings mostly fix s, not z.
+// gated by eq. 27 and offered to a step detector instead of being applied; step_count
+// consecutive agreeing values re-reference the surface, s = z - mean(h_c), with s's
+// covariance rebuilt from z's (s is then known only relative to z), leaving z and vz
+// untouched: the height in W shows no spike and the height above the surface jumps as the
+// truth does, after step_count pings. Gated residuals smaller than step_min_m get n K.
+// After any garbage (out of range, or a large residual), in-gate readings are held until
+// step_count of them in a row pass the gate, so a garbage value that happens to fall near
+// the prediction is not taken for the surface.
+// Coming down into range in the eq. 15 set, the surface below is not known (s was last seen
+// long ago, or never: the platform); in-range readings are acquisition candidates and
+// step_count agreeing ones switch to the eq. 17 set and re-reference s the same way. While
+// in the eq. 17 set, s random-walks slowly (surface_rw_mps, gentle terrain).
 class AltitudeFusion {
  public:
   enum class Outcome {
@@ -199,6 +208,9 @@ class AltitudeFusion {
   void rereference_surface(double h_mean_m, double var_m2);
   bool age_ok(double t_sample_s) const;
   void update_set();
+  // Adds a candidate height to the step detector; true (with mean and its variance) once
+  // step_count consecutive candidates agree.
+  bool collect_step(double h_now_m, double* mean_m, double* var_m2);
 
   AltitudeFusionParams p_;
   double t_s_{0.0};
@@ -208,6 +220,8 @@ class AltitudeFusion {
   double cos_tilt_{1.0};
   std::array<double, 8> step_buf_{};
   int step_n_{0};
+  bool us_suspect_{false};  // garbage seen since the last trusted ultrasonic reading
+  int us_run_{0};           // consecutive in-gate readings while suspect
 };
 
 }  // namespace lander
