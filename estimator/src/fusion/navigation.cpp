@@ -11,6 +11,9 @@ void NavigationParams::validate() const {
   require(mahony_ki >= 0, "mahony_ki", "must be >= 0");
   require(accel_gate_frac > 0 && accel_gate_frac < 1, "accel_gate_frac", "must be in (0, 1)");
   require(gyro_bias_limit_radps > 0, "gyro_bias_limit_radps", "must be > 0");
+  require(accel_lowpass_s > 0, "accel_lowpass_s", "must be > 0");
+  require(mahony_k_yaw >= 0, "mahony_k_yaw", "must be >= 0");
+  require(yaw_min_accel_mps2 > 0, "yaw_min_accel_mps2", "must be > 0");
   require(std::isfinite(initial_yaw_rad), "initial_yaw_deg", "must be finite");
   require(accel_noise_mps2 > 0, "accel_noise_mps2", "must be > 0");
   require(accel_bias_rw_mps3 >= 0, "accel_bias_rw_mps3", "must be >= 0");
@@ -39,6 +42,7 @@ void Navigation::add_imu(const ImuSample& imu) {
             Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX());
     t_s_ = imu.t_s;
     att_init_ = true;
+    f_W_lp_ = q_WB_ * f;
     omega_B_ = imu.gyro_B_radps;
     return;
   }
@@ -49,12 +53,26 @@ void Navigation::add_imu(const ImuSample& imu) {
   // --- Mahony explicit complementary filter.
   Eigen::Vector3d w = imu.gyro_B_radps - b_g_;
   omega_B_ = w;
-  const double fn = f.norm();
-  if (std::abs(fn - p_.gravity_mps2) < p_.accel_gate_frac * p_.gravity_mps2) {
-    const Eigen::Vector3d v_hat = q_WB_.conjugate() * Eigen::Vector3d::UnitZ();
-    const Eigen::Vector3d e = (f / fn).cross(v_hat);
-    w += p_.mahony_kp * e;
-    b_g_ -= p_.mahony_ki * e * dt;
+  const Eigen::Vector3d ez = Eigen::Vector3d::UnitZ();
+  f_W_lp_ += (1.0 - std::exp(-dt / p_.accel_lowpass_s)) * (q_WB_ * f - f_W_lp_);
+  f_W_hist_.push_back({t_s_, f_W_lp_});
+  constexpr double kHistory_s = 2.0;  // covers GPS latency + interval at >= 1 Hz
+  while (!f_W_hist_.empty() && f_W_hist_.front().first < t_s_ - kHistory_s) f_W_hist_.pop_front();
+  Eigen::Vector3d e_B = Eigen::Vector3d::Zero();
+  bool use = false;
+  if (p_.compensate_accel && have_a_gps_) {
+    // Error computed at the last GPS fix (add_gps), rotated into B with today's attitude.
+    use = e_W_hold_.allFinite() && !e_W_hold_.isZero(0.0);
+    e_B = q_WB_.conjugate() * e_W_hold_;
+  } else {
+    // Plain Mahony: the specific force in B is taken as "up".
+    const double fn = f.norm();
+    use = std::abs(fn - p_.gravity_mps2) < p_.accel_gate_frac * p_.gravity_mps2;
+    if (use) e_B = (f / fn).cross(q_WB_.conjugate() * ez);
+  }
+  if (use) {
+    w += p_.mahony_kp * e_B;
+    b_g_ -= p_.mahony_ki * e_B * dt;
     b_g_ = b_g_.cwiseMax(-p_.gyro_bias_limit_radps).cwiseMin(p_.gyro_bias_limit_radps);
   }
   const double angle = w.norm() * dt;
@@ -88,6 +106,35 @@ bool Navigation::add_gps(const GpsSample& gps) {
   }
   const double age = t_s_ - gps.t_s;
   if (age > p_.max_sample_age_s || age < -1e-6) return false;
+  // Low-passed GPS acceleration for the attitude correction.
+  if (t_gps_prev_ >= 0 && gps.t_s > t_gps_prev_) {
+    const double dtg = gps.t_s - t_gps_prev_;
+    const Eigen::Vector3d a_raw = (gps.v_W_mps - v_gps_prev_) / dtg;
+    a_gps_W_ += (1.0 - std::exp(-dtg / p_.accel_lowpass_s)) * (a_raw - a_gps_W_);
+    have_a_gps_ = true;
+    // IMU-side specific force at the time a_raw refers to.
+    const double t_ref = gps.t_s - 0.5 * dtg;
+    Eigen::Vector3d f_ref = f_W_lp_;
+    for (const auto& h : f_W_hist_) {
+      if (h.first <= t_ref) f_ref = h.second;
+    }
+    const Eigen::Vector3d ez = Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d ref_W = a_gps_W_ + p_.gravity_mps2 * ez;
+    const double fn = f_ref.norm();
+    e_W_hold_.setZero();
+    if (std::abs(fn - p_.gravity_mps2) < p_.accel_gate_frac * p_.gravity_mps2) {
+      e_W_hold_ = (f_ref / fn).cross(ref_W.normalized());
+      // Yaw from the direction of the horizontal acceleration.
+      const Eigen::Vector2d a_meas = (f_ref - p_.gravity_mps2 * ez).head<2>();
+      const Eigen::Vector2d a_ref = a_gps_W_.head<2>();
+      if (a_meas.norm() > p_.yaw_min_accel_mps2 && a_ref.norm() > p_.yaw_min_accel_mps2) {
+        const Eigen::Vector2d m = a_meas.normalized(), r = a_ref.normalized();
+        e_W_hold_.z() += (p_.mahony_k_yaw / std::max(p_.mahony_kp, 1e-9)) * (m.x() * r.y() - m.y() * r.x());
+      }
+    }
+  }
+  t_gps_prev_ = gps.t_s;
+  v_gps_prev_ = gps.v_W_mps;
   const double sd_p[3] = {p_.gps_horizontal_std_m, p_.gps_horizontal_std_m,
                           p_.gps_vertical_std_m};
   if (!pos_init_) {

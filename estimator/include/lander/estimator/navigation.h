@@ -8,14 +8,27 @@
 //   v   = f_B / |f_B|                       measured "up" (specific force at low acceleration)
 //   e   = v x v^
 //   w   = gyro - b^ + kp e,   db^/dt = -ki e,   dq/dt = q (x) [0, w/2]
-// The accelerometer correction is skipped when | |f| - g | > accel_gate_frac g (the vehicle
-// is accelerating). Yaw is not observable from gravity and there is no magnetometer in the
-// sensor set: yaw is the gyro integral from initial_yaw_deg (drifts with the z gyro bias).
+// A multirotor accelerates by tilting, so f_B is not "up" while it manoeuvres (a 0.8 m/s^2
+// turn would bias roll/pitch by ~5 deg). With compensate_accel (once GPS velocity arrives)
+// the comparison is made in W between two equally low-passed specific forces (time
+// constant accel_lowpass_s, so their lags cancel), at each GPS fix, with the IMU side
+// taken at the time the GPS velocity difference refers to (mid-interval of the two fixes),
+// and the resulting error held until the next fix:
+//   measured  f^_W = LP(R^_WB f_B),   reference  f_W = LP(a_gps) + g e_z,
+//   e_W = f^_W/|f^_W| x f_W/|f_W|,  w += kp R^_WB^T e_W,  db^/dt = -ki R^_WB^T e_W,
+// with a_gps the difference of successive GPS velocities. While the horizontal acceleration
+// exceeds yaw_min_accel_mps2, the yaw is also corrected from the angle between the measured
+// and GPS horizontal accelerations (gain mahony_k_yaw); otherwise yaw is the gyro integral
+// from initial_yaw_deg and drifts with the z gyro bias (no magnetometer). The correction is
+// skipped when |f^| differs from g by more than accel_gate_frac g.
 //
 // Position: for each W axis a 3-state Kalman filter [p, v, b] driven by the accelerometer in
 // W, a = R^_WB f_B - g e_z - b, updated by GPS position and velocity (latency-compensated to
 // first order), each component gated as seed 004 eq. 27 (gain n K beyond gate_sigma).
 #pragma once
+
+#include <deque>
+#include <utility>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -33,6 +46,11 @@ struct NavigationParams {
   double accel_gate_frac{0.1};            ///< skip accel correction beyond this |f|/g error
   double gyro_bias_limit_radps{0.1};      ///< clamp of the gyro bias estimate (rad/s)
   double initial_yaw_rad{0.0};            ///< yaw at start (rad), no magnetometer
+  bool compensate_accel{true};            ///< subtract the GPS-derived acceleration
+  double accel_lowpass_s{0.5};            ///< low-pass time constant of both (s)
+  double mahony_k_yaw{0.0};               ///< yaw gain from horizontal acceleration (1/s); off:
+                                          ///< differenced GPS velocity is too noisy for it
+  double yaw_min_accel_mps2{0.3};         ///< least horizontal acceleration for it
   double accel_noise_mps2{0.2};           ///< accel noise density in W (m/s^2/sqrt(Hz))
   double accel_bias_rw_mps3{0.005};       ///< accel bias random walk (m/s^2/sqrt(s))
   double initial_accel_bias_std_mps2{0.1};
@@ -54,6 +72,10 @@ void visit_fields(V& v, NavigationParams& p) {
   v("accel_gate_frac", p.accel_gate_frac);
   v("gyro_bias_limit_radps", p.gyro_bias_limit_radps);
   v("initial_yaw_deg", p.initial_yaw_rad, M_PI / 180.0);
+  v("compensate_accel", p.compensate_accel);
+  v("accel_lowpass_s", p.accel_lowpass_s);
+  v("mahony_k_yaw", p.mahony_k_yaw);
+  v("yaw_min_accel_mps2", p.yaw_min_accel_mps2);
   v("accel_noise_mps2", p.accel_noise_mps2);
   v("accel_bias_rw_mps3", p.accel_bias_rw_mps3);
   v("initial_accel_bias_std_mps2", p.initial_accel_bias_std_mps2);
@@ -92,6 +114,14 @@ class Navigation {
       b_a_{Eigen::Vector3d::Zero()};
   Eigen::Matrix3d P_[3];
   Eigen::Vector3d a_W_{Eigen::Vector3d::Zero()};  // last bias-corrected acceleration
+  // GPS-derived acceleration for the attitude correction.
+  Eigen::Vector3d a_gps_W_{Eigen::Vector3d::Zero()};
+  Eigen::Vector3d v_gps_prev_{Eigen::Vector3d::Zero()};
+  double t_gps_prev_{-1.0};
+  bool have_a_gps_{false};
+  Eigen::Vector3d f_W_lp_{0.0, 0.0, 9.81};  // LP of R^ f_B
+  std::deque<std::pair<double, Eigen::Vector3d>> f_W_hist_;  // (t, f_W_lp) for alignment
+  Eigen::Vector3d e_W_hold_{Eigen::Vector3d::Zero()};       // error from the last GPS fix
 };
 
 // The navigation solution with its vertical position and velocity replaced by the fused
