@@ -1,0 +1,239 @@
+// Altitude fusion (seed 004 sec. 4), ISA (eq. 8) and vision altitude (eq. 7) with exact,
+// hand-made measurements. Tests with the sensor models live in tests/sim/fusion_*_test.cpp.
+#include "lander/estimator/altitude_fusion.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "lander/estimator/altitude_vision.h"
+
+namespace lander {
+namespace {
+
+using O = AltitudeFusion::Outcome;
+constexpr double kDeg = M_PI / 180.0;
+
+// --------------------------------------------------------------------- config (3 tests)
+TEST(AltitudeFusionParams, DefaultIsValid) { EXPECT_NO_THROW(AltitudeFusionParams{}.validate()); }
+
+TEST(AltitudeFusionParams, SaveLoadRoundTrip) {
+  AltitudeFusionParams p;
+  p.gate_factor_n = 0.25;
+  p.max_sample_age_s = 0.3;
+  p.step_count = 4;
+  AltitudeFusionParams q;
+  read_params(params_to_yaml(p), "<saved>", q);
+  EXPECT_EQ(yaml_to_string(params_to_yaml(q)), yaml_to_string(params_to_yaml(p)));
+  EXPECT_EQ(q.gate_factor_n, 0.25);
+  EXPECT_EQ(q.step_count, 4);
+  EXPECT_DOUBLE_EQ(q.max_sample_age_s, 0.3);
+}
+
+TEST(AltitudeFusionParams, BadValueNamesField) {
+  for (const auto& [yaml, field] : std::vector<std::pair<std::string, std::string>>{
+           {"gate_factor_n: 1.5", "gate_factor_n"},
+           {"step_count: 0", "step_count"},
+           {"ultrasonic_max_m: 0.1", "ultrasonic_max_m"},
+           {"baro_std_m: 0", "baro_std_m"}}) {
+    AltitudeFusionParams p;
+    try {
+      read_params(YAML::Load(yaml), "f.yaml", p);
+      FAIL() << "expected ConfigError for " << yaml;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  }
+}
+
+// ------------------------------------------------------------------- ISA and vision
+TEST(Isa, SeaLevelAndRoundTrip) {
+  EXPECT_NEAR(isa_altitude_m(101325.0), 0.0, 1e-9);
+  // ISA table: 11000 m (tropopause) -> 22632 Pa.
+  constexpr double kTableTolerance_m = 1.0;  // table rounding
+  EXPECT_NEAR(isa_altitude_m(22632.1), 11000.0, kTableTolerance_m);
+  EXPECT_NEAR(isa_altitude_m(isa_pressure_pa(123.4)), 123.4, 1e-6);
+  EXPECT_THROW(isa_altitude_m(0.0), std::invalid_argument);
+  // ~12 Pa per metre near sea level: a 0.1 m resolution needs ~1 Pa.
+  EXPECT_NEAR(isa_pressure_pa(0.0) - isa_pressure_pa(1.0), 12.0, 0.2);
+}
+
+TEST(VisionAltitude, Eq7) {
+  // f = 640 px, L = 1 m imaged as 64 px: 10 m; tilted 10 deg pitch, 5 deg roll.
+  EXPECT_DOUBLE_EQ(vision_altitude_m(640.0, 1.0, 64.0, 0.0, 0.0), 10.0);
+  EXPECT_NEAR(vision_altitude_m(640.0, 1.0, 64.0, 10 * kDeg, 5 * kDeg),
+              10.0 * std::cos(10 * kDeg) * std::cos(5 * kDeg), 1e-12);
+  EXPECT_THROW(vision_altitude_m(640.0, 1.0, 0.0, 0.0, 0.0), std::invalid_argument);
+}
+
+TEST(VisionAltitude, HeightFromTargetPoseIsExactForAnyAttitude) {
+  const Eigen::Isometry3d X_BC = CameraMount{}.X_BC();
+  for (double roll_deg : {0.0, 10.0, -20.0}) {
+    Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
+    X_WB.linear() = (Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()) *
+                     Eigen::AngleAxisd(roll_deg * kDeg, Eigen::Vector3d::UnitX()))
+                        .toRotationMatrix();
+    X_WB.translation() = Eigen::Vector3d(0.4, -0.2, 5.8);
+    Eigen::Isometry3d X_WP = Eigen::Isometry3d::Identity();
+    X_WP.translation() = Eigen::Vector3d(0.0, 0.0, 0.8);  // platform top
+    const Eigen::Isometry3d X_CP = X_BC.inverse() * X_WB.inverse() * X_WP;
+    EXPECT_NEAR(height_above_target_m(X_CP, X_BC), 5.0, 1e-12) << roll_deg;
+  }
+  double roll, pitch;
+  roll_pitch_rad(Eigen::Quaterniond(Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitZ()) *
+                                    Eigen::AngleAxisd(-0.1, Eigen::Vector3d::UnitY()) *
+                                    Eigen::AngleAxisd(0.05, Eigen::Vector3d::UnitX())),
+                 &roll, &pitch);
+  EXPECT_NEAR(roll, 0.05, 1e-12);
+  EXPECT_NEAR(pitch, -0.1, 1e-12);
+}
+
+TEST(AltitudeFusion, VerticalAccelRemovesGravityInW) {
+  const Eigen::Quaterniond q(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitX()));
+  ImuSample imu;
+  imu.accel_B_mps2 = q.conjugate() * Eigen::Vector3d(0.2, 0.0, 9.81 + 1.5);
+  EXPECT_NEAR(vertical_accel_W(imu, q, 9.81), 1.5, 1e-12);
+}
+
+// ------------------------------------------------------------------------ the filter
+TEST(AltitudeFusion, PredictIntegratesAccelerationExactly) {
+  AltitudeFusion f(AltitudeFusionParams{});
+  f.reset(0.0, 1.0, 0.0);
+  for (int k = 1; k <= 500; ++k) f.predict(k * 0.004, 0.5);  // 2 s at 0.5 m/s^2
+  EXPECT_NEAR(f.estimate().z_W_m, 1.0 + 0.5 * 0.5 * 4.0, 1e-9);
+  EXPECT_NEAR(f.estimate().vz_W_mps, 1.0, 1e-9);
+  // Uncertainty grows with time.
+  EXPECT_GT(f.estimate().var_m2, 0.05 * 0.05);
+}
+
+BaroSample baro_at(double t, double z_msl) {
+  BaroSample b;
+  b.t_s = t;
+  b.pressure_pa = isa_pressure_pa(z_msl);
+  return b;
+}
+UltrasonicSample us_at(double t, double r) {
+  UltrasonicSample u;
+  u.t_s = t;
+  u.range_m = r;
+  return u;
+}
+
+TEST(AltitudeFusion, MeasurementSetSwitchesAtThreeMetres) {
+  AltitudeFusion high(AltitudeFusionParams{});
+  high.reset(0.0, 10.0, 0.0);
+  EXPECT_FALSE(high.ultrasonic_set_active());
+  EXPECT_EQ(high.update_baro(baro_at(0.0, 10.0)), O::kAccepted);          // eq. 15
+  EXPECT_EQ(high.update_ultrasonic(us_at(0.0, 2.0)), O::kRejectedSet);    // garbage (eq. 12)
+  EXPECT_EQ(high.update_ultrasonic(us_at(0.0, 8.0)), O::kRejectedRange);  // beyond 3.05 m
+  AltitudeFusion low(AltitudeFusionParams{});
+  low.reset(0.0, 1.5, 0.0);
+  EXPECT_TRUE(low.ultrasonic_set_active());
+  EXPECT_EQ(low.update_baro(baro_at(0.0, 1.5)), O::kRejectedSet);        // eq. 17: no baro
+  EXPECT_EQ(low.update_ultrasonic(us_at(0.0, 1.5)), O::kAccepted);
+  EXPECT_EQ(low.update_ultrasonic(us_at(0.0, 0.1)), O::kRejectedRange);  // below 0.15 m
+  EXPECT_EQ(low.update_ultrasonic(us_at(0.0, 3.2)), O::kRejectedRange);
+  // Climbing out through 3.1 m switches back (hysteresis 0.1 m).
+  for (int k = 1; k <= 1000 && low.ultrasonic_set_active(); ++k) low.predict(k * 0.004, 0.5);
+  EXPECT_FALSE(low.ultrasonic_set_active());
+  EXPECT_GT(low.estimate().h_surface_m, 3.1 - 1e-3);
+}
+
+TEST(AltitudeFusion, ConvergesBaroBiasFromExactMeasurements) {
+  AltitudeFusionParams p;
+  AltitudeFusion f(p);
+  f.reset(0.0, 10.0, 0.0);
+  const double bias = 2.5;
+  for (int k = 1; k <= 50 * 20; ++k) {  // 20 s at 50 Hz, vision at the same rate
+    const double t = k * 0.02;
+    f.predict(t, 0.0);
+    f.update_baro(baro_at(t, 10.0 + bias));
+    f.update_vision(t, 10.0 - p.platform_height_m, 0.05);
+  }
+  // Exact data: the bias is found to well under the baro noise the filter assumes.
+  EXPECT_NEAR(f.estimate().baro_bias_m, bias, 0.01);
+  EXPECT_NEAR(f.estimate().z_W_m, 10.0, 0.01);
+}
+
+TEST(AltitudeFusion, GpsOutlierIsGatedEq27) {
+  AltitudeFusionParams p;
+  AltitudeFusionParams p1 = p;
+  p1.gate_factor_n = 1.0;
+  AltitudeFusion a(p), b(p1);
+  a.reset(0.0, 10.0, 0.0);
+  b.reset(0.0, 10.0, 0.0);
+  GpsSample g;
+  g.t_s = 0.0;
+  g.p_W_m = Eigen::Vector3d(0, 0, 10.0 + 6.0);  // 5 sigma of gps_std_m
+  EXPECT_EQ(a.update_gps(g), O::kGated);
+  EXPECT_EQ(b.update_gps(g), O::kGated);  // also beyond the gate, but full gain (n = 1)
+  EXPECT_NEAR(a.estimate().z_W_m - 10.0, p.gate_factor_n * (b.estimate().z_W_m - 10.0), 1e-9);
+  g.p_W_m.z() = 10.5;  // within 2 sqrt(P~)
+  EXPECT_EQ(a.update_gps(g), O::kAccepted);
+  g.valid = false;
+  EXPECT_EQ(a.update_gps(g), O::kRejectedRange);
+}
+
+TEST(AltitudeFusion, StaleAndFutureSamplesAreRejected) {
+  AltitudeFusion f(AltitudeFusionParams{});
+  f.reset(10.0, 10.0, 0.0);
+  EXPECT_EQ(f.update_baro(baro_at(9.0, 10.0)), O::kRejectedStale);   // 1 s old > 0.5 s
+  EXPECT_EQ(f.update_baro(baro_at(10.5, 10.0)), O::kRejectedStale);  // from the future
+  EXPECT_EQ(f.update_baro(baro_at(9.8, 10.0)), O::kAccepted);
+}
+
+TEST(AltitudeFusion, PlatformEdgeReReferencesSurfaceNotHeight) {
+  AltitudeFusionParams p;
+  AltitudeFusion f(p);
+  f.reset(0.0, 2.0, 0.0);
+  double t = 0.0;
+  for (int k = 0; k < 20; ++k) {  // 1 s over the ground at 2 m
+    t += 0.05;
+    f.predict(t, 0.0);
+    EXPECT_EQ(f.update_ultrasonic(us_at(t, 2.0)), O::kAccepted);
+  }
+  const double z_before = f.estimate().z_W_m;
+  // Over the platform: 1.2 m. step_count - 1 pings are held, then the surface moves.
+  for (int k = 0; k < p.step_count; ++k) {
+    t += 0.05;
+    f.predict(t, 0.0);
+    EXPECT_EQ(f.update_ultrasonic(us_at(t, 1.2)), k + 1 < p.step_count ? O::kStepPending
+                                                                       : O::kSurfaceStep);
+    EXPECT_NEAR(f.estimate().z_W_m, z_before, 1e-9);  // the height in W never moves
+  }
+  EXPECT_NEAR(f.estimate().h_surface_m, 1.2, 1e-6);
+  t += 0.05;
+  f.predict(t, 0.0);
+  EXPECT_EQ(f.update_ultrasonic(us_at(t, 1.2)), O::kAccepted);
+  // Two garbage values that disagree never make a step.
+  EXPECT_EQ(f.update_ultrasonic(us_at(t, 2.5)), O::kStepPending);
+  EXPECT_EQ(f.update_ultrasonic(us_at(t, 0.4)), O::kStepPending);
+  EXPECT_EQ(f.update_ultrasonic(us_at(t, 2.9)), O::kStepPending);
+  EXPECT_NEAR(f.estimate().h_surface_m, 1.2, 1e-6);
+  // After garbage, readings at the right height must pass step_count times in a row.
+  for (int k = 0; k < p.step_count; ++k) {
+    EXPECT_EQ(f.update_ultrasonic(us_at(t, 1.2)), k + 1 < p.step_count ? O::kStepPending
+                                                                       : O::kAccepted);
+  }
+}
+
+TEST(AltitudeFusion, AcquiresUnknownSurfaceComingDownIntoRange) {
+  AltitudeFusionParams p;
+  AltitudeFusion f(p);
+  f.reset(0.0, 3.5, 0.0);  // believes the ground is below; it is the platform (0.8 m)
+  EXPECT_FALSE(f.ultrasonic_set_active());
+  double t = 0.0;
+  O last = O::kRejectedSet;
+  for (int k = 0; k < p.step_count; ++k) {
+    t += 0.05;
+    f.predict(t, 0.0);
+    last = f.update_ultrasonic(us_at(t, 2.7));
+  }
+  EXPECT_EQ(last, O::kSurfaceStep);
+  EXPECT_TRUE(f.ultrasonic_set_active());
+  EXPECT_NEAR(f.estimate().h_surface_m, 2.7, 1e-6);
+  EXPECT_NEAR(f.estimate().z_W_m, 3.5, 1e-9);
+}
+
+}  // namespace
+}  // namespace lander

@@ -1,0 +1,137 @@
+// Navigation filter with exact, hand-made IMU and GPS samples. Tests with the sensor
+// models live in tests/sim/fusion_navigation_test.cpp.
+#include "lander/estimator/navigation.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace lander {
+namespace {
+
+constexpr double kG = 9.81;
+
+TEST(NavigationParams, DefaultIsValid) { EXPECT_NO_THROW(NavigationParams{}.validate()); }
+
+TEST(NavigationParams, SaveLoadRoundTrip) {
+  NavigationParams p;
+  p.initial_yaw_rad = 0.5;
+  p.compensate_accel = false;
+  NavigationParams q;
+  read_params(params_to_yaml(p), "<saved>", q);
+  EXPECT_EQ(yaml_to_string(params_to_yaml(q)), yaml_to_string(params_to_yaml(p)));
+  EXPECT_NEAR(q.initial_yaw_rad, 0.5, 1e-15);
+  EXPECT_FALSE(q.compensate_accel);
+}
+
+TEST(NavigationParams, BadValueNamesField) {
+  NavigationParams p;
+  try {
+    read_params(YAML::Load("accel_gate_frac: 2"), "n.yaml", p);
+    FAIL() << "expected ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("accel_gate_frac"), std::string::npos) << e.what();
+  }
+}
+
+ImuSample imu_at(double t, const Eigen::Matrix3d& R_WB, const Eigen::Vector3d& gyro) {
+  ImuSample s;
+  s.t_s = t;
+  s.accel_B_mps2 = R_WB.transpose() * Eigen::Vector3d(0, 0, kG);
+  s.gyro_B_radps = gyro;
+  return s;
+}
+
+TEST(Navigation, InitialisesRollPitchFromGravityAndYawFromParams) {
+  NavigationParams p;
+  p.initial_yaw_rad = M_PI / 2;
+  Navigation nav(p);
+  const Eigen::Matrix3d R = (Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()) *
+                             Eigen::AngleAxisd(-0.1, Eigen::Vector3d::UnitY()) *
+                             Eigen::AngleAxisd(0.35, Eigen::Vector3d::UnitX()))
+                                .toRotationMatrix();
+  nav.add_imu(imu_at(0.0, R, Eigen::Vector3d::Zero()));
+  EXPECT_FALSE(nav.state().valid);  // no GPS yet
+  EXPECT_NEAR((nav.state().q_WB.toRotationMatrix() - R).norm(), 0.0, 1e-9);
+}
+
+TEST(Navigation, IntegratesGyroRate) {
+  Navigation nav(NavigationParams{});
+  const Eigen::Vector3d w(0.0, 0.0, 0.5);
+  for (int k = 0; k <= 500; ++k) {  // 2 s at 250 Hz, level: the accel correction is zero
+    const double t = k * 0.004;
+    const Eigen::Matrix3d R = Eigen::AngleAxisd(0.5 * t, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    nav.add_imu(imu_at(t, R, w));
+  }
+  const Eigen::Matrix3d R_end = nav.state().q_WB.toRotationMatrix();
+  EXPECT_NEAR(std::atan2(R_end(1, 0), R_end(0, 0)), 1.0, 1e-9);
+  EXPECT_NEAR((nav.state().omega_B_radps - w).norm(), 0.0, 1e-12);
+}
+
+TEST(Navigation, EstimatesHorizontalGyroBias) {
+  NavigationParams p;
+  p.compensate_accel = false;
+  Navigation nav(p);
+  const Eigen::Vector3d bias(0.01, -0.01, 0.0);
+  for (int k = 0; k <= 250 * 120; ++k) {  // 120 s level, at rest
+    nav.add_imu(imu_at(k * 0.004, Eigen::Matrix3d::Identity(), bias));
+  }
+  // 1/ki = 20 s time constant: after 6 of them the residual is < 1 %.
+  EXPECT_NEAR(nav.gyro_bias_B().x(), 0.01, 1e-4);
+  EXPECT_NEAR(nav.gyro_bias_B().y(), -0.01, 1e-4);
+  // The tilt stays near zero (steady error b / kp while converging).
+  EXPECT_LT((nav.state().q_WB.toRotationMatrix().col(2) - Eigen::Vector3d::UnitZ()).norm(), 1e-3);
+}
+
+TEST(Navigation, GpsInitialisesPositionAndLatencyIsCompensated) {
+  Navigation nav(NavigationParams{});
+  nav.add_imu(imu_at(1.0, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero()));
+  nav.add_imu(imu_at(1.1, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero()));
+  GpsSample g;
+  g.t_s = 1.0;  // 0.1 s old
+  g.p_W_m = Eigen::Vector3d(3.0, 4.0, 10.0);
+  g.v_W_mps = Eigen::Vector3d(1.0, 0.0, 0.0);
+  EXPECT_TRUE(nav.add_gps(g));
+  const NavState s = nav.state();
+  EXPECT_TRUE(s.valid);
+  EXPECT_NEAR((s.p_W_m - Eigen::Vector3d(3.1, 4.0, 10.0)).norm(), 0.0, 1e-12);
+  // Invalid and stale fixes are refused.
+  g.valid = false;
+  EXPECT_FALSE(nav.add_gps(g));
+  g.valid = true;
+  g.t_s = 0.0;
+  EXPECT_FALSE(nav.add_gps(g));
+  // The fused altitude replaces the GPS height.
+  AltitudeEstimate alt;
+  alt.valid = true;
+  alt.z_W_m = 9.5;
+  alt.vz_W_mps = -0.2;
+  const NavState m = with_altitude(s, alt);
+  EXPECT_EQ(m.p_W_m.z(), 9.5);
+  EXPECT_EQ(m.v_W_mps.z(), -0.2);
+  EXPECT_EQ(m.p_W_m.x(), s.p_W_m.x());
+}
+
+TEST(Navigation, TracksConstantVelocityFromGps) {
+  Navigation nav(NavigationParams{});
+  double t = 0.0;
+  for (int k = 0; k <= 250 * 30; ++k) {
+    t = k * 0.004;
+    nav.add_imu(imu_at(t, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero()));
+    if (k % 50 == 0) {  // 5 Hz, exact
+      GpsSample g;
+      g.t_s = t;
+      g.p_W_m = Eigen::Vector3d(2.0 * t, 0.0, 10.0);
+      g.v_W_mps = Eigen::Vector3d(2.0, 0.0, 0.0);
+      nav.add_gps(g);
+    }
+  }
+  const NavState s = nav.state();
+  // Exact data: the filter follows to well under a centimetre (only the 4 ms IMU step and
+  // the accel-bias state's transient remain).
+  EXPECT_NEAR(s.p_W_m.x(), 2.0 * t, 0.01);
+  EXPECT_NEAR(s.v_W_mps.x(), 2.0, 0.01);
+}
+
+}  // namespace
+}  // namespace lander
