@@ -164,11 +164,21 @@ TEST(AltitudeFusion, GpsOutlierIsGatedEq27) {
   b.reset(0.0, 10.0, 0.0);
   GpsSample g;
   g.t_s = 0.0;
-  g.p_W_m = Eigen::Vector3d(0, 0, 10.0 + 6.0);  // 5 sigma of gps_std_m
+  g.p_W_m = Eigen::Vector3d(0, 0, 10.0 + 4.0);  // ~3.3 sqrt(P~): beyond 2, within 5
   EXPECT_EQ(a.update_gps(g), O::kGated);
   EXPECT_EQ(b.update_gps(g), O::kGated);  // also beyond the gate, but full gain (n = 1)
+  EXPECT_GT(b.estimate().z_W_m - 10.0, 1e-3);
   EXPECT_NEAR(a.estimate().z_W_m - 10.0, p.gate_factor_n * (b.estimate().z_W_m - 10.0), 1e-9);
-  g.p_W_m.z() = 10.5;  // within 2 sqrt(P~)
+  // A very large residual (> reject_sigma sqrt(P~)) gets no gain at all (sec. 4.3) ...
+  const double z_before = a.estimate().z_W_m;
+  g.p_W_m.z() = 10.0 + 20.0;
+  EXPECT_EQ(a.update_gps(g), O::kRejectedOutlier);
+  EXPECT_EQ(a.estimate().z_W_m, z_before);
+  // ... until reject_limit of them in a row: then n K again (no lock-out).
+  for (int k = 1; k < p.reject_limit; ++k) EXPECT_EQ(a.update_gps(g), O::kRejectedOutlier);
+  EXPECT_EQ(a.update_gps(g), O::kGated);
+  EXPECT_GT(a.estimate().z_W_m, z_before);
+  g.p_W_m.z() = a.estimate().z_W_m + 0.5;  // within 2 sqrt(P~)
   EXPECT_EQ(a.update_gps(g), O::kAccepted);
   g.valid = false;
   EXPECT_EQ(a.update_gps(g), O::kRejectedRange);

@@ -49,6 +49,8 @@ void AltitudeFusionParams::validate() const {
   require(ultrasonic_max_m > ultrasonic_min_m, "ultrasonic_max_m", "must be > ultrasonic_min_m");
   require(gate_sigma > 0, "gate_sigma", "must be > 0");
   require(gate_factor_n >= 0 && gate_factor_n <= 1, "gate_factor_n", "must be in [0, 1] (eq. 27)");
+  require(reject_sigma > gate_sigma, "reject_sigma", "must be > gate_sigma");
+  require(reject_limit >= 0, "reject_limit", "must be >= 0");
   require(step_min_m > 0, "step_min_m", "must be > 0");
   require(step_count >= 1 && step_count <= 8, "step_count", "must be in 1..8");
   require(step_agree_m > 0, "step_agree_m", "must be > 0");
@@ -84,6 +86,7 @@ void AltitudeFusion::reset(double t_s, double z_W_m, double surface_W_m, double 
   step_n_ = 0;
   us_suspect_ = false;
   us_run_ = 0;
+  rejects_.fill(0);
 }
 
 void AltitudeFusion::set_attitude(const Eigen::Quaterniond& q_WB) {
@@ -163,11 +166,19 @@ void AltitudeFusion::apply(const Row& H, double r, double R, double gain_scale) 
   P_ = 0.5 * (P_ + P_.transpose());
 }
 
-AltitudeFusion::Outcome AltitudeFusion::gated_update(const Row& H, double z, double R) {
+AltitudeFusion::Outcome AltitudeFusion::gated_update(const Row& H, double z, double R,
+                                                     int sensor) {
   double r, S;
   residual(H, z, R, &r, &S);
+  const double sd = std::sqrt(S);
+  // Sec. 4.3: a very large residual gets K* = 0 (unless this sensor was refused too long).
+  if (std::abs(r) > p_.reject_sigma * sd && rejects_[sensor] < p_.reject_limit) {
+    ++rejects_[sensor];
+    return Outcome::kRejectedOutlier;
+  }
+  rejects_[sensor] = 0;
   // Eq. 27: K* = K if |r| <= 2 sqrt(P~), else n K.
-  const bool gated = std::abs(r) > p_.gate_sigma * std::sqrt(S);
+  const bool gated = std::abs(r) > p_.gate_sigma * sd;
   apply(H, r, R, gated ? p_.gate_factor_n : 1.0);
   update_set();
   return gated ? Outcome::kGated : Outcome::kAccepted;
@@ -180,13 +191,14 @@ AltitudeFusion::Outcome AltitudeFusion::update_baro(const BaroSample& s) {
   if (low_set_) return Outcome::kRejectedSet;
   const double h_q = isa_altitude_m(s.pressure_pa) - p_.baro_origin_msl_m;  // eq. 8
   return gated_update(row({{kZ, 1.0}, {kBaroBias, 1.0}}, t_s_ - s.t_s), h_q,
-                      p_.baro_std_m * p_.baro_std_m);
+                      p_.baro_std_m * p_.baro_std_m, 0);
 }
 
 AltitudeFusion::Outcome AltitudeFusion::update_gps(const GpsSample& s) {
   if (!age_ok(s.t_s)) return Outcome::kRejectedStale;
   if (!s.valid || !s.p_W_m.allFinite()) return Outcome::kRejectedRange;
-  return gated_update(row({{kZ, 1.0}}, t_s_ - s.t_s), s.p_W_m.z(), p_.gps_std_m * p_.gps_std_m);
+  return gated_update(row({{kZ, 1.0}}, t_s_ - s.t_s), s.p_W_m.z(), p_.gps_std_m * p_.gps_std_m,
+                      1);
 }
 
 AltitudeFusion::Outcome AltitudeFusion::update_vision(double t_s, double h_plane_m,
@@ -194,7 +206,7 @@ AltitudeFusion::Outcome AltitudeFusion::update_vision(double t_s, double h_plane
   if (!age_ok(t_s)) return Outcome::kRejectedStale;
   if (!std::isfinite(h_plane_m) || h_plane_m <= 0) return Outcome::kRejectedRange;
   const double sd = std_m > 0 ? std_m : p_.vision_std_m;
-  return gated_update(row({{kZ, 1.0}, {kPlane, -1.0}}, t_s_ - t_s), h_plane_m, sd * sd);
+  return gated_update(row({{kZ, 1.0}, {kPlane, -1.0}}, t_s_ - t_s), h_plane_m, sd * sd, 2);
 }
 
 void AltitudeFusion::rereference_surface(double h_mean_m, double var_m2) {

@@ -64,6 +64,11 @@ struct AltitudeFusionParams {
   // multiplied by gate_factor_n (the paper's n in [0, 1], 2 sigma in the paper).
   double gate_sigma{2.0};
   double gate_factor_n{0.1};
+  // Seed 004 sec. 4.3: "when the residual is very large, K* is set to zero". Beyond
+  // reject_sigma sqrt(P~) a component is dropped, unless reject_limit samples of that sensor
+  // in a row were dropped (then eq. 27's n K again, so a diverged filter cannot lock out).
+  double reject_sigma{5.0};
+  int reject_limit{25};
   // Surface-step detector for the ultrasonic (platform edge, and acquisition when coming
   // down into range): a gated residual of at least step_min_m is a step candidate;
   // step_count consecutive candidates whose heights agree within step_agree_m re-reference
@@ -100,6 +105,8 @@ void visit_fields(V& v, AltitudeFusionParams& p) {
   v("ultrasonic_max_m", p.ultrasonic_max_m);
   v("gate_sigma", p.gate_sigma);
   v("gate_factor_n", p.gate_factor_n);
+  v("reject_sigma", p.reject_sigma);
+  v("reject_limit", p.reject_limit);
   v("step_min_m", p.step_min_m);
   v("step_count", p.step_count);
   v("step_agree_m", p.step_agree_m);
@@ -134,7 +141,7 @@ double vertical_accel_W(const ImuSample& imu, const Eigen::Quaterniond& q_WB,
 // each arriving component is one scalar update with its row of H (equal to the stacked
 // update for independent noises). Each component is gated as in eq. 27: with residual
 // r = Z - H x (eq. 25) and P~ = H P H^T + R (eq. 26), the gain is K if |r| <= 2 sqrt(P~),
-// else n K. Late samples (stamped t < now) are compared with the state moved back by
+// else n K, and 0 beyond reject_sigma sqrt(P~) (the paper's "very large residual"). Late samples (stamped t < now) are compared with the state moved back by
 // vz (now - t) (first-order latency compensation).
 //
 // Platform edge: ultrasonic measures z - s, not z, so when the vehicle crosses the edge the
@@ -156,6 +163,7 @@ class AltitudeFusion {
   enum class Outcome {
     kAccepted,       ///< normal update, full gain
     kGated,          ///< residual beyond the gate: gain n K (eq. 27)
+    kRejectedOutlier,///< residual beyond reject_sigma: gain 0 (sec. 4.3)
     kRejectedRange,  ///< ultrasonic outside its valid range (eq. 12)
     kRejectedSet,    ///< sensor not in the active measurement set (eq. 15 / 17)
     kRejectedStale,  ///< sample older than max_sample_age_s, or from the future
@@ -202,8 +210,9 @@ class AltitudeFusion {
   void apply(const Row& H, double r, double R, double gain_scale);
   // Row of H with the latency compensation: H x - vz * age_s.
   Row row(std::initializer_list<std::pair<int, double>> entries, double age_s) const;
-  // Gates one component (eq. 27) and applies it; returns kAccepted or kGated.
-  Outcome gated_update(const Row& H, double z, double R);
+  // Gates one component (eq. 27) and applies it; returns kAccepted, kGated or
+  // kRejectedOutlier. `sensor` indexes the consecutive-rejection counters.
+  Outcome gated_update(const Row& H, double z, double R, int sensor);
   // Re-references the surface state: s = z - h_mean, with h_mean's variance var_m2.
   void rereference_surface(double h_mean_m, double var_m2);
   bool age_ok(double t_sample_s) const;
@@ -220,6 +229,7 @@ class AltitudeFusion {
   double cos_tilt_{1.0};
   std::array<double, 8> step_buf_{};
   int step_n_{0};
+  std::array<int, 3> rejects_{};  // consecutive outlier rejections: baro, GPS, vision
   bool us_suspect_{false};  // garbage seen since the last trusted ultrasonic reading
   int us_run_{0};           // consecutive in-gate readings while suspect
 };

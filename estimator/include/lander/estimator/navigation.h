@@ -27,6 +27,7 @@
 // first order), each component gated as seed 004 eq. 27 (gain n K beyond gate_sigma).
 #pragma once
 
+#include <cmath>
 #include <deque>
 #include <utility>
 
