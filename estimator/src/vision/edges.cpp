@@ -23,22 +23,6 @@ inline bool sample(const cv::Mat& img, double x, double y, double& out) {
   return true;
 }
 
-EllipseParams from_rotated_rect(const cv::RotatedRect& rr, const cv::Point2f& offset) {
-  EllipseParams e;
-  e.centre = Eigen::Vector2d(rr.center.x + offset.x, rr.center.y + offset.y);
-  const double ang = rr.angle * M_PI / 180.0;
-  if (rr.size.width >= rr.size.height) {
-    e.a = 0.5 * rr.size.width;
-    e.b = 0.5 * rr.size.height;
-    e.angle_rad = ang;
-  } else {
-    e.a = 0.5 * rr.size.height;
-    e.b = 0.5 * rr.size.width;
-    e.angle_rad = ang + 0.5 * M_PI;
-  }
-  return e;
-}
-
 // Minimum grey-level swing along a normal profile for an edge point to count.
 constexpr double kMinEdgeContrast = 12.0;
 // Profile step along the normal (px): fine enough that linear interpolation of the
@@ -146,16 +130,21 @@ std::optional<Conic> robust_fit(std::vector<Eigen::Vector2d>& pts, double* rms) 
 std::optional<EllipseCandidate> refine_candidate(const cv::Mat& blurred, const cv::Point2f& off,
                                                  const EllipseParams& e0, double search_px,
                                                  const CameraModel& cam, const VisionParams& p) {
+  // After the first pass the ellipse is within a few tenths of a pixel of the edge, so later
+  // passes search a narrower band (faster, and less exposed to neighbouring edges).
+  constexpr double kRefinedSearchPx = 1.0;
   EllipseParams e = e0;
   std::vector<Eigen::Vector2d> pts;
+  std::optional<Conic> C_img;
   double rms = 0.0;
   for (int it = 0; it < std::max(1, p.refine_iterations); ++it) {
-    pts = edge_points(blurred, off, e, search_px, p);
+    pts = edge_points(blurred, off, e, it == 0 ? search_px : std::min(search_px, kRefinedSearchPx),
+                      p);
     if (static_cast<int>(pts.size()) < std::max(6, static_cast<int>(0.6 * p.edge_samples))) {
       return std::nullopt;
     }
-    const auto C = robust_fit(pts, &rms);
-    const auto en = C ? ellipse_from_conic(*C) : std::nullopt;
+    C_img = robust_fit(pts, &rms);
+    const auto en = C_img ? ellipse_from_conic(*C_img) : std::nullopt;
     if (!en) return std::nullopt;
     e = *en;
   }
@@ -170,8 +159,9 @@ std::optional<EllipseCandidate> refine_candidate(const cv::Mat& blurred, const c
     for (std::size_t i = 0; i < pts.size(); ++i) src[i] = cv::Point2d(pts[i].x(), pts[i].y());
     cv::undistortPoints(src, dst, Kcv, Dcv, cv::noArray(), Kcv);
     for (std::size_t i = 0; i < pts.size(); ++i) pts[i] = Eigen::Vector2d(dst[i].x, dst[i].y);
+    C_img = fit_ellipse(pts, &rms);
   }
-  const auto C = fit_ellipse(pts, &rms);
+  const auto& C = C_img;
   const auto eu = C ? ellipse_from_conic(*C) : std::nullopt;
   if (!eu || rms > p.max_edge_fit_rms_px) return std::nullopt;
   cand.C = *C;
@@ -187,14 +177,23 @@ std::vector<EllipseCandidate> find_ellipses(const cv::Mat& grey, const cv::Rect&
   std::vector<EllipseCandidate> out;
   const cv::Mat sub = grey(roi);
   const cv::Point2f off(static_cast<float>(roi.x), static_cast<float>(roi.y));
+  // Per-thread buffers, re-used frame to frame (views of the size of the ROI) instead of
+  // re-allocated: fresh pages cost more than the thresholding itself.
+  thread_local cv::Mat blurred_buf, bin_buf;
+  for (cv::Mat* b : {&blurred_buf, &bin_buf}) {
+    if (b->rows < roi.height || b->cols < roi.width) {
+      b->create(std::max(b->rows, roi.height), std::max(b->cols, roi.width), CV_8UC1);
+    }
+  }
   cv::Mat blurred;
   if (p.gaussian_sigma_px > 0) {
+    blurred = blurred_buf(cv::Rect(0, 0, roi.width, roi.height));
     cv::GaussianBlur(sub, blurred, cv::Size(0, 0), p.gaussian_sigma_px);
   } else {
     blurred = sub;
   }
   // Dark annuli become foreground (255).
-  cv::Mat bin;
+  cv::Mat bin = bin_buf(cv::Rect(0, 0, roi.width, roi.height));
   if (p.adaptive_threshold) {
     cv::adaptiveThreshold(blurred, bin, 255, cv::ADAPTIVE_THRESH_MEAN_C, cv::THRESH_BINARY_INV,
                           p.adaptive_block_px, p.adaptive_offset);
@@ -222,20 +221,31 @@ std::vector<EllipseCandidate> find_ellipses(const cv::Mat& grey, const cv::Rect&
     if (br.x <= 0 || br.y <= 0 || br.x + br.width >= roi.width || br.y + br.height >= roi.height) {
       continue;
     }
-    const EllipseParams e0 = from_rotated_rect(cv::fitEllipse(c), off);
+    // Initial ellipse: direct least squares on the pixel contour (Eigen; cv::fitEllipse goes
+    // through LAPACK SVD and costs several times more for these tiny systems).
+    std::vector<Eigen::Vector2d> cpts;
+    const int cstride = std::max<int>(1, static_cast<int>(c.size()) / 96);
+    cpts.reserve(c.size() / cstride + 1);
+    for (std::size_t i = 0; i < c.size(); i += cstride) {
+      cpts.emplace_back(c[i].x + off.x, c[i].y + off.y);
+    }
+    const auto Cc = fit_ellipse(cpts);
+    const auto ec = Cc ? ellipse_from_conic(*Cc) : std::nullopt;
+    if (!ec) continue;
+    const EllipseParams& e0 = *ec;
     if (!(e0.b >= p.min_axis_px) || e0.b < p.min_axis_ratio * e0.a) continue;
     // Contour length must be close to the ellipse perimeter (Ramanujan), a cheap shape gate.
     const double h = std::pow((e0.a - e0.b) / (e0.a + e0.b), 2);
     const double perim = M_PI * (e0.a + e0.b) * (1 + 3 * h / (10 + std::sqrt(4 - 3 * h)));
     if (c.size() > 1.6 * perim || c.size() < 0.5 * perim) continue;
     // Pixel-contour fit residual gate.
-    const Conic C0 = conic_from_ellipse(e0);
+    const Conic& C0 = *Cc;
     double ss = 0.0;
-    const int stride = std::max<int>(1, static_cast<int>(c.size()) / 64);
     int cnt = 0;
-    for (std::size_t i = 0; i < c.size(); i += stride, ++cnt) {
-      const double d = sampson_distance(C0, Eigen::Vector2d(c[i].x + off.x, c[i].y + off.y));
+    for (const auto& q : cpts) {
+      const double d = sampson_distance(C0, q);
       ss += d * d;
+      ++cnt;
     }
     if (std::sqrt(ss / cnt) > p.max_contour_fit_rms_px) continue;
 

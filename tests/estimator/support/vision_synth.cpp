@@ -164,6 +164,23 @@ cv::Mat render_view(const TargetGeometry& g, const CameraModel& cam, const Eigen
   return out;
 }
 
+cv::Mat render_exposure(const TargetGeometry& g, const CameraModel& cam,
+                        const std::vector<Eigen::Isometry3d>& poses, const SynthOptions& opt) {
+  cv::Mat acc;
+  for (const auto& X : poses) {
+    cv::Mat f;
+    render_view(g, cam, X, opt).convertTo(f, opt.bgr ? CV_32FC3 : CV_32FC1);
+    if (acc.empty()) {
+      acc = f / static_cast<double>(poses.size());
+    } else {
+      acc += f / static_cast<double>(poses.size());
+    }
+  }
+  cv::Mat out;
+  acc.convertTo(out, CV_8U);
+  return out;
+}
+
 std::vector<Eigen::Vector2d> true_centres(const TargetGeometry& g, const CameraModel& cam,
                                           const Eigen::Isometry3d& X_CP) {
   std::vector<Eigen::Vector2d> out;

@@ -40,6 +40,12 @@ struct SynthOptions {
 cv::Mat render_view(const TargetGeometry& g, const CameraModel& camera,
                     const Eigen::Isometry3d& X_CP, const SynthOptions& opt = {});
 
+// Motion blur as the simulator makes it: the average of frames rendered at the poses the
+// camera passes through during the exposure.
+cv::Mat render_exposure(const TargetGeometry& g, const CameraModel& camera,
+                        const std::vector<Eigen::Isometry3d>& X_CP_during,
+                        const SynthOptions& opt = {});
+
 // True projected ring centres (undistorted px), by ring id order of g.rings.
 std::vector<Eigen::Vector2d> true_centres(const TargetGeometry& g, const CameraModel& camera,
                                           const Eigen::Isometry3d& X_CP);
