@@ -110,12 +110,24 @@ MixerOutput CascadeController::update_inner(double t_s, const NavState& nav,
     omega = nav.omega_B_radps;
     const Eigen::Quaterniond q_sp = attitude_from_thrust(force_sp_W_, yaw_sp_);
     diag_.q_sp_WB = q_sp;
-    // Attitude error in B: q_e = q^-1 q_sp, rotation vector ~ 2 vec(q_e) (shortest way).
-    Eigen::Quaterniond q_e = nav.q_WB.conjugate() * q_sp;
+    // Attitude error with roll/pitch before yaw (reduced attitude, as PX4's AttitudeControl):
+    // q_red tilts the current z_B onto the desired one by the shortest rotation; the rest of
+    // the way to q_sp is a pure yaw q_mix, whose angle is scaled by w = kp_yaw / kp_rp so a
+    // large heading change does not disturb the thrust direction.
+    const Eigen::Vector3d e_z = nav.q_WB * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d e_z_d = q_sp * Eigen::Vector3d::UnitZ();
+    Eigen::Quaterniond q_red = Eigen::Quaterniond::FromTwoVectors(e_z, e_z_d) * nav.q_WB;
+    if (e_z.dot(e_z_d) < -1.0 + 1e-9) q_red = q_sp;  // upside down: no unique tilt axis
+    Eigen::Quaterniond q_mix = q_red.conjugate() * q_sp;
+    if (q_mix.w() < 0) q_mix.coeffs() *= -1.0;
+    const double yaw_w = std::clamp(g_.att_kp_yaw / g_.att_kp_rp, 0.0, 1.0);
+    const double half_yaw = std::asin(std::clamp(q_mix.z(), -1.0, 1.0));
+    const Eigen::Quaterniond q_d =
+        q_red * Eigen::Quaterniond(std::cos(yaw_w * half_yaw), 0, 0, std::sin(yaw_w * half_yaw));
+    Eigen::Quaterniond q_e = nav.q_WB.conjugate() * q_d;
     if (q_e.w() < 0) q_e.coeffs() *= -1.0;
-    const Eigen::Vector3d e_att = 2.0 * q_e.vec();
-    omega_sp = Eigen::Vector3d(g_.att_kp_rp * e_att.x(), g_.att_kp_rp * e_att.y(),
-                               g_.att_kp_yaw * e_att.z());
+    // Rotation vector ~ 2 vec(q_e) in B; one gain, the yaw already weighted in q_d.
+    omega_sp = g_.att_kp_rp * 2.0 * q_e.vec();
     const double max_rp = g_.max_rate_rp_degps * kDegToRad;
     const double max_yaw = g_.max_rate_yaw_degps * kDegToRad;
     omega_sp.x() = std::clamp(omega_sp.x(), -max_rp, max_rp);

@@ -30,6 +30,8 @@ constexpr double kGoAroundReachedBand_m = 0.3;
 // Below this horizontal distance the bearing to the platform is dominated by vision noise and
 // the platform is near the image centre anyway: the heading is no longer aligned (m).
 constexpr double kAlignMinDistance_m = 1.5;
+// Fixes (~0.5 s at 30 Hz) before the platform velocity is fed forward in observe.
+constexpr int kMinFixesForFeedForward = 15;
 
 }  // namespace
 
@@ -109,6 +111,7 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
     }
     case Mode::kRecovery:
       recovery_z_sp_ = nav.p_W_m.z();
+      servo_int_.setZero();
       break;
     case Mode::kTouchdown:
       cut_t_ = t_s;
@@ -202,8 +205,11 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
         if (d.norm() > max_step) d *= max_step / d.norm();
         follow_p_.head<2>() += d;
         sp.p_W_m.head<2>() = follow_p_.head<2>();
-        const Eigen::Vector3d v = tracker_.velocity();
-        sp.v_W_mps.head<2>() = v.head<2>();
+        // Velocity feed-forward only once the fit has enough fixes (far away, a few noisy
+        // fixes make a velocity of metres per second out of centimetres of noise).
+        if (tracker_.num_fixes() >= kMinFixesForFeedForward) {
+          sp.v_W_mps.head<2>() = tracker_.velocity().head<2>();
+        }
         // Turn the wide image axis (body y) towards the platform while it is off to the side,
         // so an acquisition near the image corner does not lose it again.
         const Eigen::Vector2d to_plat = target.head<2>() - nav.p_W_m.head<2>();
@@ -276,7 +282,9 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       }
       const double e_xy = diag_.horizontal_error_m;
       const double h = diag_.gear_clearance_m;
-      if (e_xy > L.go_around_error_m) {
+      // A large error matters close to the cart (the gear could catch its edge); higher up
+      // the servo holds height and catches up.
+      if (e_xy > L.go_around_error_m && h < L.near_height_m) {
         switch_to(t_s, Mode::kGoAround,
                   fmt("horizontal error %.2f m > %.2f m in recovery", e_xy, L.go_around_error_m),
                   nav);
@@ -302,7 +310,16 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       const bool near = h < L.near_height_m;
       const double gate = near ? L.descent_gate_near_m : L.descent_gate_m;
       const double rate = near ? L.descent_rate_near_mps : L.descent_rate_mps;
-      const double z_floor = diag_.platform_W_m.z() + L.gear_height_m + L.final_hover_gap_m;
+      const double z_top = diag_.platform_W_m.z() + L.gear_height_m;  // gear on the top
+      // Final decimetres: below final_hold_height_m go down only when aligned to the touchdown
+      // criterion, and climb back to it when the error exceeds twice that (hysteresis).
+      const bool aligned = e_xy < L.touchdown_error_m;
+      const double z_floor =
+          z_top + ((aligned || h > L.final_hold_height_m) ? L.final_hover_gap_m
+                                                          : L.final_hold_height_m);
+      if (e_xy > 2.0 * L.touchdown_error_m) {
+        recovery_z_sp_ = std::max(recovery_z_sp_, z_top + L.final_hold_height_m);
+      }
       double vz_ff = 0.0;
       if (e_xy < gate && recovery_z_sp_ > z_floor) {
         recovery_z_sp_ -= rate * dt;
@@ -315,7 +332,23 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       // Never command the setpoint far below the vehicle (limits the descent speed near the
       // top even after a pause of the descent).
       recovery_z_sp_ = std::max(recovery_z_sp_, nav.p_W_m.z() - 0.5);
+      // Visual-servo integral: the horizontal error between the platform and the vehicle
+      // is integrated (only once roughly aligned, so the entry transient does not wind it up)
+      // and added to the setpoint; it removes the bias of the lagging velocity feed-forward
+      // on curved or accelerating cart paths.
+      const Eigen::Vector2d e_vec = diag_.platform_W_m.head<2>() - nav.p_W_m.head<2>();
+      if (e_xy < L.descent_gate_m) {
+        servo_int_ += L.servo_ki * e_vec * dt;
+        const double n = servo_int_.norm();
+        if (n > L.servo_max_correction_m) servo_int_ *= L.servo_max_correction_m / n;
+      }
       Setpoint sp = hold(diag_.platform_W_m);
+      sp.p_W_m.head<2>() += servo_int_;
+      // Carrot: the horizontal setpoint stays within recovery_max_carrot_m of the vehicle, so
+      // a large error is closed at a bounded relative speed on top of the platform velocity.
+      Eigen::Vector2d carrot = sp.p_W_m.head<2>() - nav.p_W_m.head<2>();
+      if (carrot.norm() > L.recovery_max_carrot_m) carrot *= L.recovery_max_carrot_m / carrot.norm();
+      sp.p_W_m.head<2>() = nav.p_W_m.head<2>() + carrot;
       sp.p_W_m.z() = recovery_z_sp_;
       sp.v_W_mps = Eigen::Vector3d(diag_.platform_v_W_mps.x(), diag_.platform_v_W_mps.y(), vz_ff);
       return sp;

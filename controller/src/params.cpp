@@ -77,6 +77,10 @@ void LandingParams::validate() const {
   require(descent_gate_near_m > 0, "descent_gate_near_m", "must be > 0");
   require(final_hover_gap_m >= 0 && final_hover_gap_m < cut_height_m, "final_hover_gap_m",
           "must be in [0, cut_height_m)");
+  require(final_hold_height_m > cut_height_m, "final_hold_height_m", "must be > cut_height_m");
+  require(recovery_max_carrot_m > 0, "recovery_max_carrot_m", "must be > 0");
+  require(servo_ki >= 0, "servo_ki", "must be >= 0");
+  require(servo_max_correction_m >= 0, "servo_max_correction_m", "must be >= 0");
   require(gear_height_m >= 0, "gear_height_m", "must be >= 0");
   require(cut_height_m > 0, "cut_height_m", "must be > 0");
   require(touchdown_error_m > 0, "touchdown_error_m", "must be > 0");

@@ -112,30 +112,50 @@ const PolynomialFit3& PlatformTracker::fit() const {
   return fit_;
 }
 
-Eigen::Vector3d PlatformTracker::velocity() const {
-  if (fixes_.size() < 3) return Eigen::Vector3d::Zero();
-  const double t_from = fixes_.back().t_s - p_.velocity_window_s;
-  // Linear least squares p = a + b (t - t_last) over the window.
-  double s0 = 0, s1 = 0, s2 = 0;
-  Eigen::Vector3d sp = Eigen::Vector3d::Zero(), stp = Eigen::Vector3d::Zero();
+// Local quadratic least squares over the last velocity_window_s, p(d) = a + b d + c d^2 with
+// d = t - t_last: b is the velocity at the last fix without the half-window lag of a straight
+// line (the cart brakes and turns), a the smoothed position there.
+bool PlatformTracker::local_fit(Eigen::Vector3d* p_last, Eigen::Vector3d* v_last) const {
+  if (fixes_.size() < 3) return false;
+  const double t_last = fixes_.back().t_s;
+  const double t_from = t_last - p_.velocity_window_s;
+  std::vector<double> t;
+  std::vector<Eigen::Vector3d> p;
   for (const PlatformFix& f : fixes_) {
     if (f.t_s < t_from) continue;
-    const double dt = f.t_s - fixes_.back().t_s;
-    s0 += 1;
-    s1 += dt;
-    s2 += dt * dt;
-    sp += f.p_W_m;
-    stp += dt * f.p_W_m;
+    t.push_back(f.t_s - t_last);
+    p.push_back(f.p_W_m);
   }
-  const double det = s0 * s2 - s1 * s1;
-  if (s0 < 3 || det <= 1e-12) return Eigen::Vector3d::Zero();
-  const Eigen::Vector3d b = (s0 * stp - s1 * sp) / det;
-  return clamp_norm(b, p_.platform_max_speed_mps);
+  // Quadratic with >= 6 samples (3 of redundancy), else a straight line with >= 3.
+  const int order = t.size() >= 6 ? 2 : (t.size() >= 3 ? 1 : -1);
+  if (order < 0 || !(t.back() > t.front())) return false;
+  const int n = static_cast<int>(t.size());
+  Eigen::MatrixXd V(n, order + 1);
+  Eigen::MatrixXd Y(n, 3);
+  const double scale = std::max(-t.front(), 1e-3);  // d / scale in [-1, 0]
+  for (int i = 0; i < n; ++i) {
+    const double d = t[i] / scale;
+    V(i, 0) = 1.0;
+    V(i, 1) = d;
+    if (order == 2) V(i, 2) = d * d;
+    Y.row(i) = p[i].transpose();
+  }
+  const Eigen::MatrixXd C = V.colPivHouseholderQr().solve(Y);
+  if (p_last) *p_last = C.row(0).transpose();
+  if (v_last) *v_last = clamp_norm(C.row(1).transpose() / scale, p_.platform_max_speed_mps);
+  return true;
+}
+
+Eigen::Vector3d PlatformTracker::velocity() const {
+  Eigen::Vector3d v;
+  return local_fit(nullptr, &v) ? v : Eigen::Vector3d::Zero();
 }
 
 Eigen::Vector3d PlatformTracker::position_now(double t_s) const {
   const PlatformFix& f = latest();
-  return f.p_W_m + velocity() * std::max(0.0, t_s - f.t_s);
+  Eigen::Vector3d p, v;
+  if (!local_fit(&p, &v)) return f.p_W_m;
+  return p + v * std::max(0.0, t_s - f.t_s);
 }
 
 Eigen::Vector3d PlatformTracker::predict(double t_s) const {

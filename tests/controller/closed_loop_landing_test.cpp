@@ -3,6 +3,7 @@
 // at 0.5 m/s. A controller unit test, not the product's integration test.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <iostream>
 
 #include "support/hex_model.h"
@@ -58,6 +59,80 @@ TEST(ClosedLoopLanding, LandsOnStaticPlatformWithin5cm) {
   EXPECT_TRUE(r.on_platform);
   EXPECT_TRUE(r.landed);
   EXPECT_LT(r.touchdown_offset_m, kMaxTouchdownOffset_m);
+}
+
+}  // namespace
+}  // namespace lander::ctl::test
+
+namespace lander::ctl::test {
+namespace {
+
+// The bound for the scenarios other than default and static.
+constexpr double kHardScenarioOffset_m = 0.10;
+
+// Runs cfg and checks contact on the platform, the controller's contact report and the offset.
+void expect_lands(const LandingRunConfig& cfg, double max_offset_m) {
+  const LandingRunResult r = run_landing(cfg);
+  SCOPED_TRACE(r.describe());
+  std::cout << r.describe();
+  ASSERT_TRUE(r.contact);
+  EXPECT_TRUE(r.on_platform);
+  EXPECT_TRUE(r.landed);
+  EXPECT_LT(r.touchdown_offset_m, max_offset_m);
+  EXPECT_LT(r.touchdown_tilt_deg, kMaxTouchdownTilt_deg);
+  for (const ModeTransition& tr : r.transitions) EXPECT_NE(tr.to, Mode::kGoAround) << tr.reason;
+}
+
+TEST(ClosedLoopLanding, CartAtOneMetrePerSecondOnAnArc) {
+  LandingRunConfig cfg = moving_platform_config();
+  cfg.start_W_m = Eigen::Vector3d(-4.0, 0.0, 10.0);
+  // Starts at the origin heading +x, turns left on a 10 m radius at 1 m/s.
+  cfg.platform.path = [](double t) {
+    const double R = 10.0, th = 1.0 * t / R;
+    return Eigen::Vector3d(R * std::sin(th), R * (1.0 - std::cos(th)), 0.8);
+  };
+  expect_lands(cfg, kHardScenarioOffset_m);
+}
+
+TEST(ClosedLoopLanding, StopAndGoCart) {
+  LandingRunConfig cfg = moving_platform_config();
+  cfg.start_W_m = Eigen::Vector3d(-4.0, 0.0, 10.0);
+  // A person pulling a cart: accelerate at 0.6 m/s^2 to 0.8 m/s, cruise 4 s, brake, stop 2 s.
+  cfg.platform.path = [](double t) {
+    const double v = 0.8, a = 0.6, go = 4.0, stop = 2.0;
+    const double ta = v / a, cycle = 2 * ta + go + stop, per_cycle = v * ta + v * go;
+    const double n = std::floor(t / cycle), tau = t - n * cycle;
+    double s;
+    if (tau < ta) {
+      s = 0.5 * a * tau * tau;
+    } else if (tau < ta + go) {
+      s = 0.5 * v * ta + v * (tau - ta);
+    } else if (tau < 2 * ta + go) {
+      const double u = tau - ta - go;
+      s = 0.5 * v * ta + v * go + v * u - 0.5 * a * u * u;
+    } else {
+      s = per_cycle;
+    }
+    return Eigen::Vector3d(n * per_cycle + s, 0.0, 0.8);
+  };
+  expect_lands(cfg, kHardScenarioOffset_m);
+}
+
+TEST(ClosedLoopLanding, WindWithGusts) {
+  LandingRunConfig cfg = moving_platform_config();
+  cfg.start_W_m = Eigen::Vector3d(-4.0, 0.0, 10.0);
+  cfg.model.wind_W_mps = Eigen::Vector3d(0.0, 4.0, 0.0);  // 4 m/s cross wind
+  cfg.model.gust_amplitude_mps = 2.0;                     // +-2 m/s gusts, 4 s period
+  expect_lands(cfg, kHardScenarioOffset_m);
+}
+
+TEST(ClosedLoopLanding, SlowNoisyVision) {
+  LandingRunConfig cfg = moving_platform_config();
+  cfg.start_W_m = Eigen::Vector3d(-4.0, 0.0, 10.0);
+  cfg.vision.latency_s = 0.12;       // a slow estimator
+  cfg.vision.pos_noise_per_m = 0.006;
+  cfg.vision.rot_noise_deg = 0.6;
+  expect_lands(cfg, kHardScenarioOffset_m);
 }
 
 }  // namespace

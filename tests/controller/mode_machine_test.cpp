@@ -33,6 +33,9 @@ struct KinematicRun {
     return Eigen::Vector3d::Zero();
   };
   std::function<bool(const LandingController&)> stop_when;
+  // A sudden displacement of the vehicle (a gust) to apply at this step, zero for none.
+  std::function<Eigen::Vector3d(const LandingController&)> push =
+      [](const LandingController&) { return Eigen::Vector3d::Zero(); };
 
   // Outputs.
   std::vector<ModeTransition> transitions;
@@ -50,7 +53,7 @@ struct KinematicRun {
     double yaw = 0.0;
     bool resting = false;
     double imu_z = kG;  // specific force along z_B read at the next step (m/s^2)
-    int frame = 0, keyframes = 0;
+    int frame = 0, keyframes = 0, pushed_steps = 0;
     constexpr double dt = 0.004;  // 250 Hz: vision and controller on the same clock
     for (int i = 0; i * dt < max_time_s; ++i) {
       const double t = i * dt;
@@ -81,10 +84,21 @@ struct KinematicRun {
         keyframes_before_approach = keyframes;
       }
       if (!cmd.motors_cut) {
-        // Perfect tracking: the vehicle sits on the setpoint; hovering reads +g.
+        // Perfect tracking: the vehicle sits on the setpoint; hovering reads +g. A push holds
+        // the vehicle displaced for 12 steps (48 ms), longer than one outer-loop period, so the
+        // mode machine sees it.
         resting = false;
-        p = ctl.diagnostics().setpoint.p_W_m;
-        v = ctl.diagnostics().setpoint.v_W_mps;
+        const Eigen::Vector3d shove = push(ctl);
+        if (!shove.isZero()) {
+          p += shove;
+          pushed_steps = 12;
+        }
+        if (pushed_steps > 0) {
+          --pushed_steps;
+        } else {
+          p = ctl.diagnostics().setpoint.p_W_m;
+          v = ctl.diagnostics().setpoint.v_W_mps;
+        }
         yaw = ctl.diagnostics().setpoint.yaw_rad;
         imu_z = kG;
       } else if (!resting) {
@@ -99,8 +113,8 @@ struct KinematicRun {
         }
       }
       if (resting) {  // carried by the cart, reads +g
-        p += platform.v_W_mps * dt;
-        v = platform.v_W_mps;
+        p += platform.v_W(t) * dt;
+        v = platform.v_W(t);
         imu_z = kG;
       }
       if (ctl.landed() || (stop_when && stop_when(ctl))) break;
@@ -184,25 +198,48 @@ TEST(ModeMachine, LossWhileObservingHighGoesToSearchAndReacquires) {
   EXPECT_NEAR(run.transitions[1].t_s, 1.5 + 1.0, 0.1);
 }
 
-TEST(ModeMachine, PlatformJumpInRecoveryTriggersGoAround) {
+TEST(ModeMachine, LargeErrorLowInRecoveryTriggersGoAround) {
   KinematicRun run;
-  double t_recovery = -1.0;
-  // Once recovery has run for a second, the platform (as seen) shifts by 1 m.
-  run.platform_jump = [&](double t) {
-    return (t_recovery > 0 && t > t_recovery + 1.0) ? Eigen::Vector3d(1.0, 0.0, 0.0)
-                                                    : Eigen::Vector3d::Zero();
+  // Once the vehicle is within 0.6 m of the top in recovery, a gust shoves it 0.7 m sideways
+  // along body y (the wide image axis, so the platform stays in view): that close to the cart
+  // an error above go_around_error_m (0.6 m) is a go-around.
+  bool pushed = false;
+  run.push = [&](const LandingController& c) -> Eigen::Vector3d {
+    if (pushed || c.mode() != Mode::kRecovery || c.diagnostics().gear_clearance_m > 0.6) {
+      return Eigen::Vector3d::Zero();
+    }
+    pushed = true;
+    const double yaw = c.diagnostics().setpoint.yaw_rad;
+    return Eigen::Vector3d(0.7 * -std::sin(yaw), 0.7 * std::cos(yaw), 0.0);
   };
-  run.stop_when = [&](const LandingController& c) {
-    if (c.mode() == Mode::kRecovery && t_recovery < 0) t_recovery = c.transitions().back().t_s;
-    return c.mode() == Mode::kGoAround;
-  };
+  run.stop_when = [](const LandingController& c) { return c.mode() == Mode::kGoAround; };
   run.run();
   SCOPED_TRACE(describe(run.transitions));
   std::cout << describe(run.transitions);
+  ASSERT_TRUE(pushed);
   ASSERT_FALSE(run.transitions.empty());
   EXPECT_EQ(run.transitions.back().from, Mode::kRecovery);
   EXPECT_EQ(run.transitions.back().to, Mode::kGoAround);
   EXPECT_NE(run.transitions.back().reason.find("horizontal error"), std::string::npos);
+}
+
+TEST(ModeMachine, LargeErrorHighInRecoveryIsCaughtUpWithoutGoAround) {
+  KinematicRun run;
+  // The same gust at 1.2 m above the top: the servo holds height and catches up.
+  bool pushed = false;
+  run.push = [&](const LandingController& c) -> Eigen::Vector3d {
+    if (pushed || c.mode() != Mode::kRecovery || c.diagnostics().gear_clearance_m > 1.2) {
+      return Eigen::Vector3d::Zero();
+    }
+    pushed = true;
+    const double yaw = c.diagnostics().setpoint.yaw_rad;
+    return Eigen::Vector3d(0.7 * -std::sin(yaw), 0.7 * std::cos(yaw), 0.0);
+  };
+  run.run();
+  SCOPED_TRACE(describe(run.transitions));
+  ASSERT_TRUE(pushed);
+  EXPECT_TRUE(run.landed);
+  for (const ModeTransition& tr : run.transitions) EXPECT_NE(tr.to, Mode::kGoAround);
 }
 
 TEST(ModeMachine, NoContactAfterTheCutRestartsAndGoesAround) {

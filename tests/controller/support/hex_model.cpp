@@ -47,7 +47,7 @@ void HexModel::step(double t_s, double dt, const std::array<double, 6>& w_cmd,
   }
   if (in_contact) {
     // Resting on the surface: carried along, reads +g (the platform does not accelerate).
-    const Eigen::Vector3d v_s = contact_on_platform ? platform->v_W_mps : Eigen::Vector3d::Zero();
+    const Eigen::Vector3d v_s = contact_on_platform ? platform->v_W(t_s + dt) : Eigen::Vector3d::Zero();
     const Eigen::Vector3d c_s = contact_on_platform ? platform->p_W(t_s + dt) : Eigen::Vector3d::Zero();
     p = c_s + contact_p_offset_;
     v = v_s;
@@ -70,7 +70,12 @@ void HexModel::step(double t_s, double dt, const std::array<double, 6>& w_cmd,
   // Translational dynamics (eq. 19-20 in W) with linear drag; semi-implicit Euler.
   const Eigen::Matrix3d R = q.toRotationMatrix();
   const Eigen::Vector3d g_W(0, 0, -p_.gravity_mps2);
-  const Eigen::Vector3d a = (R * Eigen::Vector3d(0, 0, T) - p_.drag_N_per_mps * v) / p_.mass_kg + g_W;
+  Eigen::Vector3d wind = p_.wind_W_mps;
+  if (p_.gust_amplitude_mps != 0.0 && wind.norm() > 0) {
+    wind += wind.normalized() * p_.gust_amplitude_mps * std::sin(2 * M_PI * t_s / p_.gust_period_s);
+  }
+  const Eigen::Vector3d a =
+      (R * Eigen::Vector3d(0, 0, T) - p_.drag_N_per_mps * (v - wind)) / p_.mass_kg + g_W;
   specific_force_B_ = R.transpose() * (a - g_W);
   v += a * dt;
   p += v * dt;
@@ -97,7 +102,7 @@ void HexModel::step(double t_s, double dt, const std::array<double, 6>& w_cmd,
     in_contact = true;
     contact_on_platform = on_platform;
     contact_t_s = t_s + dt;
-    const Eigen::Vector3d v_s = on_platform ? platform->v_W_mps : Eigen::Vector3d::Zero();
+    const Eigen::Vector3d v_s = on_platform ? platform->v_W(t_s + dt) : Eigen::Vector3d::Zero();
     contact_offset_W_m = p - surface_p;
     contact_rel_v_W_mps = v - v_s;
     contact_tilt_deg = std::acos(std::clamp((q * Eigen::Vector3d::UnitZ()).z(), -1.0, 1.0)) / kDeg;

@@ -33,15 +33,24 @@ struct HexModelParams {
   double motor_tau_s{0.05};
   double gravity_mps2{9.81};
   double drag_N_per_mps{0.3};       ///< linear translational drag (unknown to the controller)
-  double gear_height_m{0.20};       ///< CoM height above the surface when standing (m)
+  double gear_height_m{0.25};       ///< CoM height above the surface when standing (m),
+                                    ///< as models/hexarotor.xml (skids at -0.24 m, r 0.01 m)
+  Eigen::Vector3d wind_W_mps{Eigen::Vector3d::Zero()};  ///< steady wind (drag acts on v - wind)
+  double gust_amplitude_mps{0.0};   ///< sinusoidal gust on top of the wind, along wind (m/s)
+  double gust_period_s{4.0};        ///< gust period (s)
 };
 
-// A platform moving at constant velocity with a flat round top.
+// The landing platform: by default moving at constant velocity; `path` (position of the top
+// centre in W as a function of time) overrides that for turning or stop-and-go carts.
 struct PlatformTruth {
   Eigen::Vector3d p0_W_m{0.0, 0.0, 0.8};    ///< centre of the top at t = 0 (m)
   Eigen::Vector3d v_W_mps{0.0, 0.0, 0.0};   ///< velocity (m/s)
   double radius_m{0.6};                     ///< top radius (m)
-  Eigen::Vector3d p_W(double t_s) const { return p0_W_m + v_W_mps * t_s; }
+  std::function<Eigen::Vector3d(double)> path;  ///< optional trajectory of the top centre
+  Eigen::Vector3d p_W(double t_s) const { return path ? path(t_s) : p0_W_m + v_W_mps * t_s; }
+  Eigen::Vector3d v_W(double t_s) const {   // central difference, 1 ms
+    return path ? Eigen::Vector3d((path(t_s + 1e-3) - path(t_s - 1e-3)) / 2e-3) : v_W_mps;
+  }
 };
 
 class HexModel {

@@ -126,6 +126,7 @@ class LandingController {
   Eigen::Vector3d follow_p_{Eigen::Vector3d::Zero()};  // observe: slewed platform follow point
   CubicTrajectory approach_;
   double recovery_z_sp_{0.0};
+  Eigen::Vector2d servo_int_{Eigen::Vector2d::Zero()};  // visual-servo integral (m)
   double cut_t_{0.0};
   double contact_accum_s_{0.0};
   double last_inner_t_{0.0};

@@ -44,10 +44,10 @@ void visit_fields(V& v, VehicleParams& p) {
 // the loops multiply by m and J of VehicleParams.
 struct CascadeParams {
   double outer_rate_hz{30.0};        ///< position/velocity loop rate (Hz): camera rate
-  double pos_kp_xy{1.0};             ///< horizontal position gain (1/s)
+  double pos_kp_xy{1.3};             ///< horizontal position gain (1/s)
   double pos_kp_z{1.5};              ///< vertical position gain (1/s)
-  double vel_kp_xy{2.5};             ///< horizontal velocity gain (1/s)
-  double vel_ki_xy{0.8};             ///< horizontal velocity integral gain (1/s^2)
+  double vel_kp_xy{3.0};             ///< horizontal velocity gain (1/s)
+  double vel_ki_xy{1.2};             ///< horizontal velocity integral gain (1/s^2)
   double vel_kp_z{4.0};              ///< vertical velocity gain (1/s)
   double vel_ki_z{2.0};              ///< vertical velocity integral gain (1/s^2)
   double max_int_accel_mps2{2.0};    ///< anti-windup bound of each integral term (m/s^2)
@@ -56,7 +56,7 @@ struct CascadeParams {
   double max_vel_down_mps{1.5};      ///< descent speed limit (m/s)
   double max_accel_z_mps2{4.0};      ///< |vertical acceleration command| limit (m/s^2)
   double max_tilt_deg{30.0};         ///< tilt limit of the thrust vector (deg), in (0, 80)
-  double att_kp_rp{6.0};             ///< roll/pitch attitude gain (1/s)
+  double att_kp_rp{7.0};             ///< roll/pitch attitude gain (1/s)
   double att_kp_yaw{2.5};            ///< yaw attitude gain (1/s)
   double max_rate_rp_degps{200.0};   ///< roll/pitch rate setpoint limit (deg/s)
   double max_rate_yaw_degps{60.0};   ///< yaw rate setpoint limit (deg/s)
@@ -97,8 +97,8 @@ void visit_fields(V& v, CascadeParams& p) {
 // Platform tracking from vision (seed 000 eq. 24-28).
 struct TrackerParams {
   int poly_order{4};                    ///< order of the per-axis fit, eq. 25-27 (paper: 4)
-  double fit_window_s{8.0};             ///< observations older than this are not fitted (s)
-  double max_poly_extrapolation_s{1.0}; ///< beyond this horizon the prediction continues
+  double fit_window_s{3.0};             ///< fit window (s): ~ the paper's 80 frames at 30 Hz
+  double max_poly_extrapolation_s{0.5}; ///< beyond this horizon the prediction continues
                                         ///< linearly (a quartic diverges far out) (s)
   double velocity_window_s{1.0};        ///< window of the linear velocity fit (s)
   double platform_max_speed_mps{2.0};   ///< plausibility bound of the platform speed (m/s)
@@ -127,7 +127,8 @@ struct LandingParams {
   double approach_min_duration_s{3.0};    ///< lower bound of t_d - t_0 (s)
   double approach_max_duration_s{15.0};   ///< upper bound of t_d - t_0 (s)
   double approach_switch_error_m{0.05};   ///< |Diff| at t >= t_d to enter recovery (paper 5 cm)
-  double approach_settle_timeout_s{2.0};  ///< after t_d: enter recovery anyway if in view (s)
+  double approach_settle_timeout_s{0.3};  ///< after t_d: enter recovery anyway if in view (s);
+                                          ///< short, the cart does not wait
   // recovery: visual servo and controlled descent (seed 000 section 3.3)
   double descent_rate_mps{0.5};           ///< descent rate high above the platform (m/s)
   double descent_rate_near_mps{0.2};      ///< descent rate below near_height_m (m/s)
@@ -135,8 +136,18 @@ struct LandingParams {
   double descent_gate_m{0.25};            ///< descend only while |horizontal error| < this (m)
   double descent_gate_near_m{0.10};       ///< the same gate below near_height_m (m)
   double final_hover_gap_m{0.03};         ///< lowest gear clearance before the cut (m)
+  double final_hold_height_m{0.30};       ///< below this gear clearance descend only while
+                                          ///< |error| < touchdown_error_m; climb back to it
+                                          ///< when |error| > 2 touchdown_error_m (m)
+  double recovery_max_carrot_m{0.3};      ///< visual-servo setpoint at most this far from the
+                                          ///< vehicle horizontally: bounds the catch-up speed
+                                          ///< (and tilt, which would swing the view off) (m)
+  double servo_ki{0.6};                   ///< integral gain of the visual servo on the
+                                          ///< horizontal error (removes tracking bias) (1/s)
+  double servo_max_correction_m{0.3};     ///< bound of that integral correction (m)
   // touchdown (seed 000 section 3.3: < 5 cm and steady platform)
-  double gear_height_m{0.20};             ///< CoM height above the surface when landed (m)
+  double gear_height_m{0.25};             ///< CoM height above the surface when landed (m):
+                                          ///< models/hexarotor.xml skids at -0.24 m, r 0.01 m
   double cut_height_m{0.06};              ///< cut when gear clearance is below this (m)
   double touchdown_error_m{0.05};         ///< cut only when |horizontal error| < this (m)
   double max_touchdown_rel_speed_mps{0.3};///< cut only when |relative velocity| < this (m/s)
@@ -152,7 +163,8 @@ struct LandingParams {
   double recovery_loss_timeout_s{0.5};    ///< the same in recovery (s)
   int reacquire_frames{3};                ///< consecutive keyframes to re-acquire
   double go_around_low_height_m{3.0};     ///< lost below this height above the top -> go-around
-  double go_around_error_m{0.6};          ///< horizontal error in recovery -> go-around (m)
+  double go_around_error_m{0.6};          ///< horizontal error in recovery below near_height_m
+                                          ///< -> go-around (m)
   double go_around_height_m{6.0};         ///< climb to this height above the top (m)
   double search_min_height_m{2.0};        ///< search/hold at least this high above ground (m)
   double search_yaw_rate_degps{20.0};     ///< heading sweep while searching, so the wide image
@@ -176,6 +188,10 @@ void visit_fields(V& v, LandingParams& p) {
   v("descent_gate_m", p.descent_gate_m);
   v("descent_gate_near_m", p.descent_gate_near_m);
   v("final_hover_gap_m", p.final_hover_gap_m);
+  v("final_hold_height_m", p.final_hold_height_m);
+  v("recovery_max_carrot_m", p.recovery_max_carrot_m);
+  v("servo_ki", p.servo_ki);
+  v("servo_max_correction_m", p.servo_max_correction_m);
   v("gear_height_m", p.gear_height_m);
   v("cut_height_m", p.cut_height_m);
   v("touchdown_error_m", p.touchdown_error_m);

@@ -62,10 +62,12 @@ class PlatformTracker {
   // from the last fix bounded by platform_max_speed_mps * horizon.
   Eigen::Vector3d predict(double t_s) const;
 
-  // Platform velocity in W (m/s): linear least squares over velocity_window_s, speed-bounded.
+  // Platform velocity in W at the last fix (m/s): local quadratic least squares over
+  // velocity_window_s (a line with fewer than 6 fixes), speed-bounded; 0 with < 3 fixes.
   Eigen::Vector3d velocity() const;
 
-  // The platform now: last fix moved on by velocity() (latency compensation).
+  // The platform now: the local fit's position at the last fix moved on by velocity()
+  // (latency compensation); the raw last fix when there are too few fixes to fit.
   Eigen::Vector3d position_now(double t_s) const;
 
   // Steady platform (seed 000 section 3.3): over the last window_s, every normal within
@@ -75,6 +77,8 @@ class PlatformTracker {
               std::string* why = nullptr) const;
 
  private:
+  bool local_fit(Eigen::Vector3d* p_last, Eigen::Vector3d* v_last) const;
+
   TrackerParams p_;
   Eigen::Isometry3d X_BC_;
   std::deque<NavState> nav_;
