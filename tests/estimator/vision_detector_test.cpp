@@ -263,6 +263,27 @@ TEST(VisionDetector, GarbageInputGivesNoPoseAndAReason) {
   EXPECT_EQ(det.detect(half).status, VisionStatus::TooFewRings);
 }
 
+// The paper's Canny + close chain and the adaptive (local) threshold are options; both find
+// the target and its pose too.
+TEST(VisionDetector, CannyAndAdaptiveThresholdVariantsDetect) {
+  const TargetGeometry& g = test::default_target();
+  const auto X = test::look_at_pose(3.0, 25.0, 30.0, 60.0);
+  test::SynthOptions opt;
+  opt.noise_sigma = 1.0;
+  const cv::Mat img = test::render_view(g, kCam, X, opt);
+  VisionParams canny;
+  canny.canny_edges = true;
+  canny.close_kernel_px = 3;
+  VisionParams adaptive;
+  adaptive.adaptive_threshold = true;
+  for (const auto& p : {canny, adaptive}) {
+    const RingDetection d = detect_ring_target(img, kCam, g, p);
+    ASSERT_TRUE(d.detected) << d.reason << (p.canny_edges ? " (canny)" : " (adaptive)");
+    EXPECT_GE(d.centres.size(), 6u);
+    EXPECT_LT(test::position_error_m(d.X_CP, X), kPosTolPerMetre * X.translation().norm());
+  }
+}
+
 TEST(VisionDetector, ObservationAndJson) {
   const TargetGeometry& g = test::default_target();
   const auto X = test::look_at_pose(4.0, 20.0, 0.0);
