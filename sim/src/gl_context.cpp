@@ -189,6 +189,16 @@ GlContext::~GlContext() {
 
 GlBackend GlContext::backend() const { return impl_->backend; }
 
+void* GlContext::proc(const char* name) const {
+  if (impl_->backend == GlBackend::Egl) {
+    auto getProc = sym<PFNEGLGETPROCADDRESSPROC>(impl_->lib, "eglGetProcAddress");
+    return getProc ? reinterpret_cast<void*>(getProc(name)) : nullptr;
+  }
+  using OsGetProc = void* (*)(const char*);
+  auto getProc = sym<OsGetProc>(impl_->lib, "OSMesaGetProcAddress");
+  return getProc ? getProc(name) : nullptr;
+}
+
 std::string GlContext::description() const {
   return to_string(impl_->backend) + " (" + impl_->renderer + ")";
 }

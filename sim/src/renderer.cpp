@@ -33,6 +33,21 @@ Renderer::~Renderer() {
   mjv_freeScene(&scene_);
 }
 
+void Renderer::upload_texture(const mjModel* m, int tex_id) {
+  // MuJoCo 2.2.2's mjr_uploadTexture leaves the old mipmap levels in place (minified views
+  // still sample the old texture), so rebuild the rendering context: every texture is
+  // uploaded with fresh mipmaps. Costs about a second; textures change rarely.
+  (void)tex_id;
+  mjModel* mm = const_cast<mjModel*>(m);
+  const int saved_samples = mm->vis.quality.offsamples;
+  mm->vis.quality.offsamples = params_.msaa_samples;
+  mjr_freeContext(&context_);
+  mjr_defaultContext(&context_);
+  mjr_makeContext(m, &context_, mjFONTSCALE_100);
+  mm->vis.quality.offsamples = saved_samples;
+  mjr_setBuffer(mjFB_OFFSCREEN, &context_);
+}
+
 void Renderer::render_camera(const mjModel* m, mjData* d, int cam_id, int width, int height,
                              cv::Mat& bgr) {
   mjvCamera cam;

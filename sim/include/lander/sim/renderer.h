@@ -47,6 +47,9 @@ class Renderer {
   void render_free(const mjModel* m, mjData* d, const mjvCamera& cam, int width, int height,
                    cv::Mat& bgr);
 
+  // Re-uploads model texture `tex_id` after its pixels changed (World::set_texture).
+  void upload_texture(const mjModel* m, int tex_id);
+
   std::string backend_description() const { return gl_->description(); }
 
  private:

@@ -1,0 +1,51 @@
+// Scripted motion of the cart: a path (straight line or circular arc) travelled with a speed
+// profile (constant, or stop-and-go as a person pulling a cart). Closed form in time, so the
+// reference and its derivatives are exact at any instant.
+#pragma once
+
+#include <string>
+
+#include <Eigen/Core>
+
+#include "lander/estimator/params_io.h"
+
+namespace lander::sim {
+
+struct CartMotionParams {
+  std::string path{"straight"};           ///< static | straight | arc
+  std::string speed_profile{"constant"};  ///< constant | stop_and_go
+  Eigen::Vector2d start_m{0.0, 0.0};      ///< platform centre at t = 0, in W (m)
+  double heading_rad{0.0};                ///< initial heading from W x (rad); YAML heading_deg
+  double speed_mps{0.5};                  ///< cruise speed (m/s)
+  double turn_radius_m{10.0};             ///< arc radius (m); > 0 turns left, < 0 right
+  double accel_mps2{0.6};                 ///< stop_and_go acceleration and braking (m/s^2)
+  double go_s{4.0};                       ///< stop_and_go cruise time per cycle (s)
+  double stop_s{2.0};                     ///< stop_and_go standstill time per cycle (s)
+  double start_delay_s{0.0};              ///< time before the cart starts (s)
+  void validate() const;
+};
+
+template <class V>
+void visit_fields(V& v, CartMotionParams& p) {
+  v("path", p.path);
+  v("speed_profile", p.speed_profile);
+  v("start_m", p.start_m);
+  v("heading_deg", p.heading_rad, M_PI / 180.0);
+  v("speed_mps", p.speed_mps);
+  v("turn_radius_m", p.turn_radius_m);
+  v("accel_mps2", p.accel_mps2);
+  v("go_s", p.go_s);
+  v("stop_s", p.stop_s);
+  v("start_delay_s", p.start_delay_s);
+}
+
+// Cart reference: q = (x, y, yaw) of the platform centre in W and its first two derivatives.
+struct CartReference {
+  Eigen::Vector3d q{Eigen::Vector3d::Zero()};
+  Eigen::Vector3d qd{Eigen::Vector3d::Zero()};
+  Eigen::Vector3d qdd{Eigen::Vector3d::Zero()};
+};
+
+CartReference cart_reference(const CartMotionParams& p, double t_s);
+
+}  // namespace lander::sim

@@ -1,0 +1,29 @@
+// Runs one scenario end to end and writes its outputs (DESIGN.md, "Outputs of a run"):
+// summary.json (versioned schema), trace.csv, scenario.resolved.yaml, and with video on,
+// camera.mp4 and chase.mp4.
+#pragma once
+
+#include <string>
+
+#include "lander/sim/json.h"
+#include "lander/sim/scenario.h"
+
+namespace lander::sim {
+
+constexpr int kSummarySchemaVersion = 1;
+
+struct RunOptions {
+  std::string out_dir;         ///< created if missing; files inside are overwritten
+  bool video{false};           ///< write camera.mp4 and chase.mp4
+  bool progress{false};        ///< print progress to stderr
+};
+
+// Checks everything that can be checked before any output is written: the scenario, the
+// model and target files, the output directory's parent. Throws ConfigError.
+void preflight(const Scenario& s, const RunOptions& o);
+
+// Runs the scenario. Inputs are checked first (preflight); once outputs are being written,
+// a failure still leaves a summary.json whose outcome says what went wrong, and rethrows.
+Json run_scenario(const Scenario& s, const RunOptions& o);
+
+}  // namespace lander::sim

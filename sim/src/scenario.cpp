@@ -1,0 +1,79 @@
+#include "lander/sim/scenario.h"
+
+#include <cmath>
+
+namespace lander::sim {
+
+void VehicleSetup::validate() const {
+  require(control == "closed_loop" || control == "kinematic", "vehicle.control",
+          "must be closed_loop or kinematic (got '" + control + "')");
+  if (control == "kinematic") {
+    require(!waypoints.empty(), "vehicle.waypoints", "a kinematic vehicle needs waypoints");
+  }
+  for (std::size_t i = 1; i < waypoints.size(); ++i) {
+    require(waypoints[i].t_s > waypoints[i - 1].t_s,
+            "vehicle.waypoints[" + std::to_string(i) + "].t_s", "times must increase");
+  }
+  require(start_p_W_m.z() > 0.3, "vehicle.start_m", "start height must be > 0.3 m");
+}
+
+void Scenario::validate() const {
+  require(duration_s > 0 && duration_s <= 3600, "duration_s", "must be in (0, 3600] s");
+  world.validate();
+  camera.validate();
+  render.validate();
+  cart.validate();
+  vehicle.validate();
+  video.validate();
+}
+
+Scenario Scenario::load(const std::string& path) {
+  Scenario s;
+  read_params(load_yaml_file(path), path, s);
+  return s;
+}
+
+std::uint64_t derive_seed(std::uint64_t scenario_seed, const std::string& stream) {
+  // FNV-1a of the stream name mixed with the scenario seed through SplitMix64's finaliser.
+  std::uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : stream) h = (h ^ c) * 1099511628211ull;
+  std::uint64_t z = scenario_seed + 0x9E3779B97F4A7C15ull * (h | 1);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+namespace {
+Eigen::Matrix3d rpy_to_R(const Eigen::Vector3d& rpy) {
+  return (Eigen::AngleAxisd(rpy.z(), Eigen::Vector3d::UnitZ()) *
+          Eigen::AngleAxisd(rpy.y(), Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(rpy.x(), Eigen::Vector3d::UnitX()))
+      .toRotationMatrix();
+}
+}  // namespace
+
+void scripted_vehicle_state(const VehicleSetup& v, double t, Eigen::Isometry3d& X_WB,
+                            Eigen::Vector3d& v_W, Eigen::Vector3d& omega_B) {
+  const auto& w = v.waypoints;
+  std::size_t i = 0;
+  while (i + 1 < w.size() && w[i + 1].t_s <= t) ++i;
+  Eigen::Vector3d p = w[i].p_W_m, rpy = w[i].rpy_rad;
+  v_W.setZero();
+  omega_B.setZero();
+  if (i + 1 < w.size() && t > w[i].t_s) {
+    const double dt = w[i + 1].t_s - w[i].t_s, a = (t - w[i].t_s) / dt;
+    p = (1 - a) * w[i].p_W_m + a * w[i + 1].p_W_m;
+    rpy = (1 - a) * w[i].rpy_rad + a * w[i + 1].rpy_rad;
+    v_W = (w[i + 1].p_W_m - w[i].p_W_m) / dt;
+    // Body rates from the finite rotation over a short interval.
+    const double h = 1e-4;
+    const Eigen::Vector3d rpy2 = rpy + h * (w[i + 1].rpy_rad - w[i].rpy_rad) / dt;
+    const Eigen::AngleAxisd d(rpy_to_R(rpy).transpose() * rpy_to_R(rpy2));
+    omega_B = d.axis() * d.angle() / h;
+  }
+  X_WB = Eigen::Isometry3d::Identity();
+  X_WB.linear() = rpy_to_R(rpy);
+  X_WB.translation() = p;
+}
+
+}  // namespace lander::sim

@@ -1,0 +1,32 @@
+// `lander run SCENARIO.yaml --out DIR [--video] [--quiet]`
+#include <iostream>
+
+#include "command.h"
+#include "lander/sim/run.h"
+
+namespace lander::cli {
+namespace {
+
+int run(const Args& args) {
+  ArgParser a(args, {"out"}, {"video", "quiet"});
+  if (a.positional().size() != 1) throw UsageError("usage: lander run SCENARIO.yaml --out DIR [--video]");
+  if (!a.has("out")) throw UsageError("missing --out DIR");
+  const sim::Scenario s = sim::Scenario::load(a.positional()[0]);
+  sim::RunOptions o;
+  o.out_dir = a.value("out");
+  o.video = a.flag("video");
+  o.progress = !a.flag("quiet");
+  const sim::Json summary = sim::run_scenario(s, o);
+  std::cout << "lander run: " << s.name << ": " << summary.find("outcome")->string()
+            << "\noutputs in " << o.out_dir << "/ (summary.json, trace.csv, scenario.resolved.yaml"
+            << (o.video ? ", camera.mp4, chase.mp4" : "") << ")\n";
+  const sim::Json* landed = summary.find("landed");
+  const bool scripted = s.vehicle.control == "kinematic";
+  return (scripted || (landed && landed->boolean())) ? kExitOk : kExitFailure;
+}
+
+const LanderCommand reg("run", "run SCENARIO.yaml --out DIR [--video] [--quiet]: run one scenario",
+                        Kind::Command, run);
+
+}  // namespace
+}  // namespace lander::cli
