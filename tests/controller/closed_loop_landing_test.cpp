@@ -137,3 +137,47 @@ TEST(ClosedLoopLanding, SlowNoisyVision) {
 
 }  // namespace
 }  // namespace lander::ctl::test
+
+namespace lander::ctl::test {
+namespace {
+
+TEST(ClosedLoopLanding, NoisyNavigationState) {
+  LandingRunConfig cfg = moving_platform_config();
+  cfg.start_W_m = Eigen::Vector3d(-4.0, 0.0, 10.0);
+  // A GPS/INS-grade navigation solution: wandering position bias, white noise on everything.
+  cfg.nav_noise.pos_walk_m_per_sqrt_s = 0.02;
+  cfg.nav_noise.pos_white_m = 0.01;
+  cfg.nav_noise.vel_white_mps = 0.03;
+  cfg.nav_noise.att_white_deg = 0.2;
+  cfg.nav_noise.gyro_white_radps = 0.005;
+  expect_lands(cfg, kHardScenarioOffset_m);
+}
+
+}  // namespace
+}  // namespace lander::ctl::test
+
+namespace lander::ctl::test {
+namespace {
+
+TEST(ClosedLoopLanding, DefaultScenarioLandsWithin5cmForTwentyNoiseSeeds) {
+  // Monte Carlo over the vision and navigation noise: not one lucky seed.
+  int landed = 0;
+  double worst = 0.0;
+  for (unsigned seed = 1; seed <= 20; ++seed) {
+    LandingRunConfig cfg = moving_platform_config();
+    cfg.vision.seed = seed;
+    cfg.nav_noise.seed = 100 + seed;
+    cfg.nav_noise.pos_white_m = 0.005;
+    cfg.nav_noise.att_white_deg = 0.1;
+    const LandingRunResult r = run_landing(cfg);
+    SCOPED_TRACE("seed " + std::to_string(seed) + "\n" + r.describe());
+    EXPECT_TRUE(r.landed && r.on_platform);
+    EXPECT_LT(r.touchdown_offset_m, kMaxTouchdownOffset_m);
+    if (r.landed && r.on_platform) ++landed;
+    worst = std::max(worst, r.touchdown_offset_m);
+  }
+  std::cout << "landed " << landed << "/20, worst offset " << worst << " m\n";
+}
+
+}  // namespace
+}  // namespace lander::ctl::test

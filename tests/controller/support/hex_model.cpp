@@ -203,6 +203,13 @@ LandingRunResult run_landing(const LandingRunConfig& cfg) {
   RotorCommand cmd;
   cmd.w_radps = model.w;
   LandingRunResult res;
+  std::mt19937 nav_rng(cfg.nav_noise.seed);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  const NavNoiseParams& nn = cfg.nav_noise;
+  Eigen::Vector3d pos_bias = Eigen::Vector3d::Zero();
+  auto white3 = [&](double sigma) {
+    return Eigen::Vector3d(sigma * n01(nav_rng), sigma * n01(nav_rng), sigma * n01(nav_rng));
+  };
   const int steps = static_cast<int>(cfg.max_time_s / cfg.physics_dt_s);
   for (int i = 0; i < steps; ++i) {
     const double t = i * cfg.physics_dt_s;
@@ -211,7 +218,16 @@ LandingRunResult run_landing(const LandingRunConfig& cfg) {
     vision.update(t, model.X_WB(), X_WP);
     if (i % cfg.inner_every == 0) {
       for (const PlatformObservation& obs : vision.deliver(t)) ctl.on_vision(obs);
-      cmd = ctl.step(t, model.nav(t), model.imu(t));
+      NavState nav = model.nav(t);
+      const double dt_ctl = cfg.physics_dt_s * cfg.inner_every;
+      pos_bias += white3(nn.pos_walk_m_per_sqrt_s * std::sqrt(dt_ctl));
+      nav.p_W_m += pos_bias + white3(nn.pos_white_m);
+      nav.v_W_mps += white3(nn.vel_white_mps);
+      nav.q_WB = (nav.q_WB * exp_quat(white3(nn.att_white_deg * kDeg))).normalized();
+      nav.omega_B_radps += white3(nn.gyro_white_radps);
+      ImuSample imu = model.imu(t);
+      imu.gyro_B_radps = nav.omega_B_radps;
+      cmd = ctl.step(t, nav, imu);
       if (cfg.on_step) cfg.on_step(t, model, ctl);
     }
     model.step(t, cfg.physics_dt_s, cmd.w_radps, &cfg.platform);

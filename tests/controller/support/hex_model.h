@@ -120,12 +120,23 @@ class SyntheticVision {
   std::mt19937 rng_;
 };
 
+// Errors of the navigation state the controller gets (a filter is never perfect).
+struct NavNoiseParams {
+  double pos_walk_m_per_sqrt_s{0.0};  ///< random-walk position bias, like GPS wander
+  double pos_white_m{0.0};            ///< white position noise per sample (m)
+  double vel_white_mps{0.0};          ///< white velocity noise (m/s)
+  double att_white_deg{0.0};          ///< white attitude noise per axis (deg)
+  double gyro_white_radps{0.0};       ///< white rate noise (rad/s)
+  unsigned seed{11};
+};
+
 // Closed loop: model at 1 kHz, controller at 250 Hz, vision at 30 Hz.
 struct LandingRunConfig {
   ControllerParams controller;
   HexModelParams model;
   VisionModelParams vision;
   PlatformTruth platform;
+  NavNoiseParams nav_noise;
   Eigen::Vector3d start_W_m{-5.0, 0.0, 10.0};
   double max_time_s{90.0};
   double physics_dt_s{0.001};
