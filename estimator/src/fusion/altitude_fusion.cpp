@@ -32,6 +32,8 @@ double vertical_accel_W(const ImuSample& imu, const Eigen::Quaterniond& q_WB,
 void AltitudeFusionParams::validate() const {
   require(baro_std_m > 0, "baro_std_m", "must be > 0");
   require(gps_std_m > 0, "gps_std_m", "must be > 0");
+  require(gps_corr_time_s > 0, "gps_corr_time_s", "must be > 0");
+  require(gps_white_std_m > 0, "gps_white_std_m", "must be > 0");
   require(ultrasonic_std_m > 0, "ultrasonic_std_m", "must be > 0");
   require(vision_std_m > 0, "vision_std_m", "must be > 0");
   require(accel_noise_mps2 > 0, "accel_noise_mps2", "must be > 0");
@@ -82,6 +84,7 @@ void AltitudeFusion::reset(double t_s, double z_W_m, double surface_W_m, double 
   P_(kAccelBias, kAccelBias) = p_.initial_accel_bias_std_mps2 * p_.initial_accel_bias_std_mps2;
   P_(kSurface, kSurface) = kInitialSurfaceStd_m * kInitialSurfaceStd_m;
   P_(kPlane, kPlane) = p_.platform_height_std_m * p_.platform_height_std_m;
+  P_(kGpsErr, kGpsErr) = p_.gps_std_m * p_.gps_std_m;
   low_set_ = (z_W_m - surface_W_m) < p_.switch_height_m;
   step_n_ = 0;
   us_suspect_ = false;
@@ -109,9 +112,12 @@ void AltitudeFusion::predict(double t_s, double az_W_mps2) {
   F(kZ, kVz) = dt;
   F(kZ, kAccelBias) = -0.5 * dt * dt;
   F(kVz, kAccelBias) = -dt;
+  const double a_g = std::exp(-dt / p_.gps_corr_time_s);
+  F(kGpsErr, kGpsErr) = a_g;
   const double a = az_W_mps2 - x_[kAccelBias];
   x_[kZ] += x_[kVz] * dt + 0.5 * a * dt * dt;
   x_[kVz] += a * dt;
+  x_[kGpsErr] *= a_g;
   // Q: white acceleration (density q) into [z, vz]; random walks on the other states.
   const double q = p_.accel_noise_mps2 * p_.accel_noise_mps2;
   Mat Q = Mat::Zero();
@@ -122,6 +128,7 @@ void AltitudeFusion::predict(double t_s, double az_W_mps2) {
   Q(kAccelBias, kAccelBias) = p_.accel_bias_rw_mps3 * p_.accel_bias_rw_mps3 * dt;
   Q(kSurface, kSurface) = p_.surface_rw_mps * p_.surface_rw_mps * dt;
   Q(kPlane, kPlane) = p_.platform_rw_mps * p_.platform_rw_mps * dt;
+  Q(kGpsErr, kGpsErr) = p_.gps_std_m * p_.gps_std_m * (1.0 - a_g * a_g);
   P_ = F * P_ * F.transpose() + Q;
   t_s_ = t_s;
   update_set();
@@ -197,8 +204,8 @@ AltitudeFusion::Outcome AltitudeFusion::update_baro(const BaroSample& s) {
 AltitudeFusion::Outcome AltitudeFusion::update_gps(const GpsSample& s) {
   if (!age_ok(s.t_s)) return Outcome::kRejectedStale;
   if (!s.valid || !s.p_W_m.allFinite()) return Outcome::kRejectedRange;
-  return gated_update(row({{kZ, 1.0}}, t_s_ - s.t_s), s.p_W_m.z(), p_.gps_std_m * p_.gps_std_m,
-                      1);
+  return gated_update(row({{kZ, 1.0}, {kGpsErr, 1.0}}, t_s_ - s.t_s), s.p_W_m.z(),
+                      p_.gps_white_std_m * p_.gps_white_std_m, 1);
 }
 
 AltitudeFusion::Outcome AltitudeFusion::update_vision(double t_s, double h_plane_m,
@@ -279,6 +286,10 @@ AltitudeFusion::Outcome AltitudeFusion::update_ultrasonic(const UltrasonicSample
   }
   if (std::abs(r) < p_.step_min_m) {
     step_n_ = 0;
+    if (us_suspect_) {  // still re-confirming after garbage: hold it
+      us_run_ = 0;
+      return Outcome::kStepPending;
+    }
     apply(H, r, R, p_.gate_factor_n);  // eq. 27
     update_set();
     return Outcome::kGated;

@@ -39,7 +39,9 @@ struct AltitudeFusionParams {
   double baro_origin_msl_m{0.0};
   // Measurement noise std (the diagonal of R, eq. 22) per sensor (m).
   double baro_std_m{0.15};
-  double gps_std_m{1.2};
+  double gps_std_m{1.2};            ///< std of the time-correlated GPS height error (m)
+  double gps_corr_time_s{10.0};     ///< its correlation time (s), Gauss-Markov
+  double gps_white_std_m{0.1};      ///< white part of the GPS height noise (m)
   double ultrasonic_std_m{0.005};
   double vision_std_m{0.05};        ///< used when update_vision is called without a std
   // Process noise (Q, eq. 21), as continuous-time densities.
@@ -88,6 +90,8 @@ void visit_fields(V& v, AltitudeFusionParams& p) {
   v("baro_origin_msl_m", p.baro_origin_msl_m);
   v("baro_std_m", p.baro_std_m);
   v("gps_std_m", p.gps_std_m);
+  v("gps_corr_time_s", p.gps_corr_time_s);
+  v("gps_white_std_m", p.gps_white_std_m);
   v("ultrasonic_std_m", p.ultrasonic_std_m);
   v("vision_std_m", p.vision_std_m);
   v("accel_noise_mps2", p.accel_noise_mps2);
@@ -127,14 +131,18 @@ double vertical_accel_W(const ImuSample& imu, const Eigen::Quaterniond& q_WB,
 //   eps_b barometer bias (m) (eq. 9),
 //   b_a   vertical accelerometer bias (m/s^2),
 //   s     height in W of the surface straight below (ground or platform top) (m),
-//   c     height in W of the target plane (platform top) seen by vision (m).
+//   c     height in W of the target plane (platform top) seen by vision (m),
+//   g     GPS height error (m): first-order Gauss-Markov (gps_std_m, gps_corr_time_s), as
+//         real receivers' errors are correlated over many seconds (seed 004 eq. 10 calls it
+//         white; treated as white, 60 s of 5 Hz fixes would look 300x more informative than
+//         they are and pull z by their slow error).
 // Seed 004 predicts h with its helicopter model eq. 13-14 (main-rotor speed and collective
 // pitch). That model does not fit a multirotor (no collective, six fixed-pitch rotors), so
 // here the prediction (eq. 19) integrates the IMU's vertical acceleration instead:
 //   z += vz dt + (a - b_a) dt^2/2,  vz += (a - b_a) dt,  eps_b, b_a, s, c constant (+ noise).
 // Measurements (rows of H, eq. 15 and 17, extended by the surface states):
 //   baro        h_q = z + eps_b        (eq. 9; used above the switch height, eq. 15)
-//   GPS         h_g = z                (eq. 10; both sets)
+//   GPS         h_g = z + g            (eq. 10 + correlated error; both sets)
 //   ultrasonic  h_c = z - s            (eq. 12; below the switch height only, eq. 17)
 //   vision      h_v = z - c            (eq. 7 / ring pose; both sets)
 // The paper stacks the components of one epoch; our sensors arrive at their own rates, so
@@ -151,9 +159,9 @@ double vertical_accel_W(const ImuSample& imu, const Eigen::Quaterniond& q_WB,
 // covariance rebuilt from z's (s is then known only relative to z), leaving z and vz
 // untouched: the height in W shows no spike and the height above the surface jumps as the
 // truth does, after step_count pings. Gated residuals smaller than step_min_m get n K.
-// After any garbage (out of range, or a large residual), in-gate readings are held until
-// step_count of them in a row pass the gate, so a garbage value that happens to fall near
-// the prediction is not taken for the surface.
+// After any garbage (out of range, or a large residual), readings are held until
+// step_count of them in a row pass the gate (gated ones restart the count), so a garbage
+// value that happens to fall near the prediction is not taken for the surface.
 // Coming down into range in the eq. 15 set, the surface below is not known (s was last seen
 // long ago, or never: the platform); in-range readings are acquisition candidates and
 // step_count agreeing ones switch to the eq. 17 set and re-reference s the same way. While
@@ -170,8 +178,9 @@ class AltitudeFusion {
     kStepPending,    ///< range residual held by the surface-step detector
     kSurfaceStep,    ///< surface re-referenced (platform edge)
   };
-  static constexpr int kZ = 0, kVz = 1, kBaroBias = 2, kAccelBias = 3, kSurface = 4, kPlane = 5;
-  static constexpr int kN = 6;
+  static constexpr int kZ = 0, kVz = 1, kBaroBias = 2, kAccelBias = 3, kSurface = 4, kPlane = 5,
+                       kGpsErr = 6;
+  static constexpr int kN = 7;
   using Vec = Eigen::Matrix<double, kN, 1>;
   using Mat = Eigen::Matrix<double, kN, kN>;
 
