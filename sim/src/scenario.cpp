@@ -15,6 +15,7 @@ void VehicleSetup::validate() const {
             "vehicle.waypoints[" + std::to_string(i) + "].t_s", "times must increase");
   }
   require(start_p_W_m.z() > 0.3, "vehicle.start_m", "start height must be > 0.3 m");
+  model.validate();
 }
 
 void Scenario::validate() const {
@@ -24,11 +25,24 @@ void Scenario::validate() const {
   render.validate();
   cart.validate();
   vehicle.validate();
+  sensors.validate();
+  wind.validate();
+  estimator.validate();
+  controller.validate();
+  faults.validate();
   video.validate();
+  require(trace_rate_hz > 0 && trace_rate_hz <= 1000, "trace_rate_hz", "must be in (0, 1000]");
+}
+
+Scenario Scenario::defaults() {
+  Scenario s;
+  const std::string vehicle_yaml = std::string(LANDER_MODELS_DIR) + "/vehicle.yaml";
+  read_params(load_yaml_file(vehicle_yaml), vehicle_yaml, s.vehicle.model);
+  return s;
 }
 
 Scenario Scenario::load(const std::string& path) {
-  Scenario s;
+  Scenario s = defaults();
   read_params(load_yaml_file(path), path, s);
   return s;
 }

@@ -10,8 +10,16 @@
 
 #include <Eigen/Core>
 
+#include "lander/controller/params.h"
+#include "lander/estimator/altitude_fusion.h"
+#include "lander/estimator/navigation.h"
 #include "lander/estimator/params_io.h"
+#include "lander/estimator/vision_params.h"
 #include "lander/sim/camera.h"
+#include "lander/sim/ground_effect.h"
+#include "lander/sim/rotor.h"
+#include "lander/sim/sensors.h"
+#include "lander/sim/wind.h"
 #include "lander/sim/cart_motion.h"
 #include "lander/sim/renderer.h"
 #include "lander/sim/world.h"
@@ -34,11 +42,29 @@ void visit_fields(V& v, Waypoint& p) {
   v("rpy_deg", p.rpy_rad, M_PI / 180.0);
 }
 
+// Physical rotor and ground-effect parameters of the simulated vehicle (truth side). Defaults
+// come from models/vehicle.yaml; mass and inertia are in models/hexarotor.xml.
+struct VehicleModelParams {
+  RotorParams rotor;
+  GroundEffectParams ground_effect;
+  void validate() const {
+    rotor.validate();
+    ground_effect.validate();
+  }
+};
+
+template <class V>
+void visit_fields(V& v, VehicleModelParams& p) {
+  v.nested("rotor", p.rotor);
+  v.nested("ground_effect", p.ground_effect);
+}
+
 struct VehicleSetup {
   std::string control{"closed_loop"};        ///< closed_loop | kinematic (scripted waypoints)
   Eigen::Vector3d start_p_W_m{-5.0, 0.0, 10.0};  ///< closed_loop start position (m)
   double start_yaw_rad{0.0};                 ///< closed_loop start yaw (rad); YAML start_yaw_deg
   std::vector<Waypoint> waypoints;           ///< kinematic script, t_s increasing
+  VehicleModelParams model;                  ///< rotors and ground effect (truth)
   void validate() const;
 };
 
@@ -48,6 +74,63 @@ void visit_fields(V& v, VehicleSetup& p) {
   v("start_m", p.start_p_W_m);
   v("start_yaw_deg", p.start_yaw_rad, M_PI / 180.0);
   v.list("waypoints", p.waypoints);
+  v.nested("model", p.model);
+}
+
+// The flight software's estimator stages and how vision results reach the controller.
+struct EstimatorSetup {
+  VisionParams vision;
+  AltitudeFusionParams altitude;
+  NavigationParams navigation;
+  double vision_latency_s{0.030};  ///< processing latency of a frame (s); YAML vision_latency_ms
+  bool measured_latency{false};    ///< use the measured processing time instead (not
+                                   ///< deterministic: depends on the machine's load)
+  void validate() const {
+    vision.validate();
+    altitude.validate();
+    navigation.validate();
+    require(vision_latency_s >= 0 && vision_latency_s < 1.0, "estimator.vision_latency_ms",
+            "must be in [0, 1000) ms");
+  }
+};
+
+template <class V>
+void visit_fields(V& v, EstimatorSetup& p) {
+  v.nested("vision", p.vision);
+  v.nested("altitude", p.altitude);
+  v.nested("navigation", p.navigation);
+  v("vision_latency_ms", p.vision_latency_s, 1e-3);
+  v("measured_latency", p.measured_latency);
+}
+
+// Injected faults (seed 004's robustness tests; benchmarks and scenarios). Times < 0: off.
+struct FaultParams {
+  double gps_step_t_s{-1.0};                     ///< start of a GPS position step (s)
+  double gps_step_duration_s{2.0};               ///< its duration (s)
+  Eigen::Vector3d gps_step_W_m{0.0, 0.0, 5.0};   ///< the step (m)
+  double ultrasonic_garbage_t_s{-1.0};           ///< start of an ultrasonic garbage burst (s)
+  double ultrasonic_garbage_duration_s{1.0};     ///< its duration (s)
+  double vision_outlier_t_s{-1.0};               ///< first vision frame replaced by an outlier (s)
+  int vision_outlier_frames{3};                  ///< consecutive outlier frames
+  double vision_outlier_m{1.0};                  ///< outlier: platform pose shifted along z_C (m)
+  void validate() const {
+    require(gps_step_duration_s >= 0, "faults.gps_step_duration_s", "must be >= 0");
+    require(ultrasonic_garbage_duration_s >= 0, "faults.ultrasonic_garbage_duration_s",
+            "must be >= 0");
+    require(vision_outlier_frames >= 0, "faults.vision_outlier_frames", "must be >= 0");
+  }
+};
+
+template <class V>
+void visit_fields(V& v, FaultParams& p) {
+  v("gps_step_t_s", p.gps_step_t_s);
+  v("gps_step_duration_s", p.gps_step_duration_s);
+  v("gps_step_m", p.gps_step_W_m);
+  v("ultrasonic_garbage_t_s", p.ultrasonic_garbage_t_s);
+  v("ultrasonic_garbage_duration_s", p.ultrasonic_garbage_duration_s);
+  v("vision_outlier_t_s", p.vision_outlier_t_s);
+  v("vision_outlier_frames", p.vision_outlier_frames);
+  v("vision_outlier_m", p.vision_outlier_m);
 }
 
 struct VideoParams {
@@ -86,11 +169,20 @@ struct Scenario {
   RenderParams render;
   CartMotionParams cart;
   VehicleSetup vehicle;
+  SensorSuiteParams sensors;
+  WindParams wind;
+  EstimatorSetup estimator;
+  ctl::ControllerParams controller;
+  FaultParams faults;
   VideoParams video;
+  double trace_rate_hz{100.0};  ///< rows per second in trace.csv
 
   void validate() const;
-  // Loads a scenario YAML on top of the defaults. Throws ConfigError with file:line and key.
+  // Loads a scenario YAML on top of the defaults (and models/vehicle.yaml for the vehicle
+  // model). Throws ConfigError with file:line and key.
   static Scenario load(const std::string& path);
+  // The defaults with models/vehicle.yaml applied: what a scenario file starts from.
+  static Scenario defaults();
 };
 
 template <class V>
@@ -104,7 +196,13 @@ void visit_fields(V& v, Scenario& p) {
   v.nested("render", p.render);
   v.nested("cart", p.cart);
   v.nested("vehicle", p.vehicle);
+  v.nested("sensors", p.sensors);
+  v.nested("wind", p.wind);
+  v.nested("estimator", p.estimator);
+  v.nested("controller", p.controller);
+  v.nested("faults", p.faults);
   v.nested("video", p.video);
+  v("trace_rate_hz", p.trace_rate_hz);
 }
 
 // Derives the seed of one random stream ("imu", "camera", ...) from the scenario seed.

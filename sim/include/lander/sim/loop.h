@@ -1,0 +1,35 @@
+// The closed-loop run: physics, sensors, camera and flight software on one fixed-step
+// scheduler (see closed_loop.cpp). run_scenario() calls it for vehicle.control: closed_loop.
+#pragma once
+
+#include "lander/sim/json.h"
+#include "lander/sim/renderer.h"
+#include "lander/sim/run.h"
+#include "lander/sim/scenario.h"
+#include "lander/sim/world.h"
+
+namespace lander::sim {
+
+// Where the wall time went (ms summed over the run) and how much was simulated.
+struct LoopResult {
+  double sim_s{0.0};
+  double wall_s{0.0};
+  double render_ms{0.0};     ///< camera renders (incl. blur sub-frames)
+  double estimator_ms{0.0};  ///< ring detector on each frame
+  double control_ms{0.0};    ///< sensors, navigation, altitude fusion, controller
+  double physics_ms{0.0};    ///< motors, ground-effect rays, wind, mj_step
+  int frames{0};
+  int outliers_injected{0};
+};
+
+// End of the exposure that starts at t_start_s.
+inline double camera_exposure_end(const CameraParams& p, double t_start_s) {
+  return t_start_s + p.exposure_s;
+}
+
+// Runs the closed loop; fills `summary` (landed, outcome, touchdown figures, transitions,
+// vision counts, altitude-fusion errors) and writes trace.csv and the videos into o.out_dir.
+LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
+                           Renderer& renderer, Json& summary);
+
+}  // namespace lander::sim

@@ -1,0 +1,529 @@
+// The closed loop (DESIGN.md, "The loop"): one deterministic fixed-step scheduler.
+//
+// Every physics step (1 kHz by default):
+//   cart drive forces (PD + feed-forward on the scripted path), rotor thrust and torque with
+//   motor lag and per-rotor ground effect (one ray per rotor), wind drag -> mj_step;
+//   truth -> sensors at their own rates -> delay queues (latency) -> navigation and altitude
+//   fusion; the camera exposes at its rate, rendering sub-frames at physics steps inside the
+//   exposure (motion blur), and its frame goes to the ring detector, whose result reaches
+//   the controller after the processing latency; the controller's inner loop runs on each
+//   IMU sample and its rotor commands drive the motors.
+// The simulator keeps the truth; the flight software (estimator/, controller/) sees only
+// the samples.
+#include <chrono>
+#include <map>
+#include <cmath>
+#include <fstream>
+#include <iostream>
+#include <memory>
+
+#include <opencv2/imgproc.hpp>
+
+#include "lander/controller/landing_controller.h"
+#include "lander/estimator/altitude_fusion.h"
+#include "lander/estimator/altitude_vision.h"
+#include "lander/estimator/navigation.h"
+#include "lander/estimator/vision_detector.h"
+#include "lander/sim/altitude_metrics.h"
+#include "lander/sim/ground_effect.h"
+#include "lander/sim/loop.h"
+#include "lander/sim/rotor.h"
+#include "lander/sim/sensors.h"
+#include "lander/sim/truth.h"
+#include "lander/sim/video.h"
+#include "lander/sim/wind.h"
+
+namespace lander::sim {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+Eigen::Vector3d rpy_of(const Eigen::Matrix3d& R) {
+  return {std::atan2(R(2, 1), R(2, 2)), std::asin(-std::clamp(R(2, 0), -1.0, 1.0)),
+          std::atan2(R(1, 0), R(0, 0))};
+}
+
+double wrap_pi(double a) { return std::atan2(std::sin(a), std::cos(a)); }
+
+void put_text(cv::Mat& img, const std::string& text, int line) {
+  const cv::Point org(10, 22 + 20 * line);
+  cv::putText(img, text, org, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
+  cv::putText(img, text, org, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1,
+              cv::LINE_AA);
+}
+
+std::string fmt(const char* f, double a = 0, double b = 0, double c = 0, double d = 0) {
+  char buf[160];
+  std::snprintf(buf, sizeof(buf), f, a, b, c, d);
+  return buf;
+}
+
+// Draws the detector's view on a (downscaled) camera frame.
+void draw_detection(cv::Mat& img, const RingDetection& det, double scale) {
+  for (const auto& e : det.ellipses) {
+    const cv::Scalar colour = e.ring_id >= 0 ? cv::Scalar(0, 220, 0) : cv::Scalar(0, 140, 255);
+    const cv::RotatedRect r(cv::Point2f(e.image.centre.x() * scale, e.image.centre.y() * scale),
+                            cv::Size2f(2 * e.image.a * scale, 2 * e.image.b * scale),
+                            static_cast<float>(e.image.angle_rad * 180.0 / M_PI));
+    cv::ellipse(img, r, colour, 1, cv::LINE_AA);
+  }
+  for (const auto& c : det.centres) {
+    const cv::Point p(static_cast<int>(c.centre_image_px.x() * scale),
+                      static_cast<int>(c.centre_image_px.y() * scale));
+    cv::drawMarker(img, p, cv::Scalar(0, 0, 255), cv::MARKER_CROSS, 8, 1);
+    cv::putText(img, std::to_string(c.ring_id), p + cv::Point(4, -4), cv::FONT_HERSHEY_SIMPLEX,
+                0.45, cv::Scalar(0, 0, 255), 1, cv::LINE_AA);
+  }
+}
+
+// Platform (cart) drive: PD + feed-forward per joint so the cart follows its path whatever
+// lands on it. Gains in N/m, N s/m (x, y) and N m/rad, N m s/rad (yaw).
+struct CartDrive {
+  double mass_kg, yaw_inertia;
+  void apply(World& w, const CartReference& ref) const {
+    const Eigen::Vector3d q = w.cart_q(), qd = w.cart_qd();
+    const double kp[3] = {4000.0, 4000.0, 3000.0}, kd[3] = {1200.0, 1200.0, 500.0};
+    const double inertia[3] = {mass_kg, mass_kg, yaw_inertia};
+    const mjModel* m = w.model();
+    mjData* d = w.data();
+    for (int i = 0; i < 3; ++i) {
+      double e = ref.q[i] - q[i];
+      if (i == 2) e = wrap_pi(e);
+      const double damping = m->dof_damping[w.cart_dof(i)];
+      d->ctrl[i] = inertia[i] * ref.qdd[i] + kp[i] * e + kd[i] * (ref.qd[i] - qd[i]) +
+                   damping * ref.qd[i];
+    }
+  }
+};
+
+}  // namespace
+
+LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
+                           Renderer& renderer, Json& summary) {
+  const mjModel* m = world.model();
+  mjData* d = world.data();
+  const double dt = s.world.physics_dt_s;
+  const CameraModel& cam = s.camera.intrinsics;
+  const int vb = world.vehicle_body();
+  const double mass = m->body_subtreemass[vb];
+
+  // ---- initial state: cart on its path, vehicle hovering at the start point ----
+  const CartReference ref0 = cart_reference(s.cart, 0.0);
+  world.set_cart_state(ref0.q, ref0.qd);
+  Eigen::Isometry3d X_WB0 = Eigen::Isometry3d::Identity();
+  X_WB0.linear() = Eigen::AngleAxisd(s.vehicle.start_yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  X_WB0.translation() = s.vehicle.start_p_W_m;
+  world.set_vehicle_state(X_WB0, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
+  world.forward();
+
+  const RotorParams& rp = s.vehicle.model.rotor;
+  MotorBank motors(rp);
+  const double w_hover = hover_speed_radps(rp, mass, -m->opt.gravity[2]);
+  RotorArray w_cmd;
+  w_cmd.fill(w_hover);
+  motors.reset(w_cmd);
+  WindModel wind(s.wind, derive_seed(s.seed, "wind"));
+  const CartDrive cart_drive{m->body_mass[world.cart_body()], m->body_inertia[3 * world.cart_body() + 2]};
+
+  // ---- sensors (truth side) and their delivery queues ----
+  ImuModel imu(s.sensors.imu, derive_seed(s.seed, "imu"));
+  BaroModel baro(s.sensors.baro, derive_seed(s.seed, "baro"));
+  GpsModel gps(s.sensors.gps, derive_seed(s.seed, "gps"));
+  UltrasonicModel sonar(s.sensors.ultrasonic, derive_seed(s.seed, "ultrasonic"));
+  if (s.faults.gps_step_t_s >= 0) {
+    gps.inject_offset(s.faults.gps_step_t_s, s.faults.gps_step_duration_s, s.faults.gps_step_W_m);
+  }
+  if (s.faults.ultrasonic_garbage_t_s >= 0) {
+    sonar.inject_garbage(s.faults.ultrasonic_garbage_t_s, s.faults.ultrasonic_garbage_duration_s);
+  }
+  DelayQueue<ImuSample> imu_q;
+  DelayQueue<BaroSample> baro_q;
+  DelayQueue<GpsSample> gps_q;
+  DelayQueue<UltrasonicSample> sonar_q;
+  DelayQueue<PlatformObservation> vision_q;
+  DelayQueue<std::pair<double, double>> vision_alt_q;  // (t, height above plane)
+
+  // ---- flight software ----
+  const CameraMount mount;  // the vehicle's calibrated camera mount (matches the MJCF)
+  RingTargetDetector detector(cam, world.target(), s.estimator.vision);
+  Navigation nav(s.estimator.navigation);
+  AltitudeFusion fusion(s.estimator.altitude);
+  // The vehicle knows it starts on its launch point's GPS altitude; here it starts in the
+  // air, so the filter starts from the first barometer reading (bias unknown).
+  bool fusion_started = false;
+  ctl::LandingController controller(s.controller, mount);
+  ImuSample last_imu;
+  bool have_imu = false;
+
+  // ---- camera schedule ----
+  CameraPipeline camera(s.camera, derive_seed(s.seed, "camera"));
+  const double frame_period = 1.0 / s.camera.rate_hz;
+  int frame_index = 0;
+  double next_frame_t = 0.0;
+  std::vector<double> sample_times;
+  std::size_t next_sample = 0;
+  bool exposing = false;
+  cv::Mat render;
+
+  // ---- outputs ----
+  std::unique_ptr<VideoWriter> cam_video, chase_video;
+  const int vw = cam.width_px / s.video.camera_scale_div / 2 * 2;
+  const int vh = cam.height_px / s.video.camera_scale_div / 2 * 2;
+  if (o.video) {
+    cam_video = std::make_unique<VideoWriter>(o.out_dir + "/camera.mp4", vw, vh, s.camera.rate_hz);
+    chase_video = std::make_unique<VideoWriter>(o.out_dir + "/chase.mp4", s.video.chase_width_px,
+                                                s.video.chase_height_px, s.camera.rate_hz);
+  }
+  std::ofstream trace(o.out_dir + "/trace.csv");
+  if (!trace) throw std::runtime_error(o.out_dir + "/trace.csv: cannot write");
+  trace << "t_s,mode,x_WB_m,y_WB_m,z_WB_m,roll_rad,pitch_rad,yaw_rad,vx_W_mps,vy_W_mps,vz_W_mps,"
+           "x_WP_m,y_WP_m,z_WP_m,yaw_WP_rad,nav_x_m,nav_y_m,nav_z_m,nav_vx_mps,nav_vy_mps,"
+           "nav_vz_mps,nav_roll_rad,nav_pitch_rad,nav_yaw_rad,fused_z_m,fused_h_surface_m,"
+           "true_h_surface_m,ctl_platform_x_m,ctl_platform_y_m,ctl_platform_z_m,"
+           "ctl_horizontal_error_m,true_horizontal_error_m,sp_x_m,sp_y_m,sp_z_m,"
+           "vision_detected,w0_radps,w1_radps,w2_radps,w3_radps,w4_radps,w5_radps\n";
+  const int trace_every = std::max(1, static_cast<int>(std::lround(1.0 / (s.trace_rate_hz * dt))));
+
+  // ---- statistics ----
+  LoopResult res;
+  int frames = 0, detections = 0, keyframes = 0, keyframes_rejected = 0;
+  std::map<std::string, int> not_detected_reasons;
+  ErrorStats fused_z_err, fused_h_err;
+  double t_first_contact = -1, t_landed_confirm = -1;
+  bool touched_ground = false;
+  Json touchdown = Json::object();
+  RingDetection last_det;
+  double last_det_t = -1;
+  int vision_outliers_left = 0;
+  std::string outcome = "timeout", outcome_detail;
+  Eigen::Vector3d v_prev = world.v_WB();
+
+  const int n_steps = static_cast<int>(std::floor(s.duration_s / dt + 0.5));
+  const std::array<int, 3> skid_geoms = {mj_name2id(m, mjOBJ_GEOM, "skid_left"),
+                                         mj_name2id(m, mjOBJ_GEOM, "skid_right"), -1};
+  const int platform_geom = mj_name2id(m, mjOBJ_GEOM, "platform");
+  const int ground_geom = mj_name2id(m, mjOBJ_GEOM, "ground");
+  const auto wall0 = Clock::now();
+
+  for (int k = 0; k < n_steps; ++k) {
+    const double t = k * dt;
+    // ---- camera: renders at the exposure's sample times (state at time t) ----
+    if (!exposing && t + 1e-9 >= next_frame_t) {
+      exposing = true;
+      camera.begin(t);
+      sample_times = exposure_sample_times(s.camera, t, dt);
+      next_sample = 0;
+    }
+    if (exposing) {
+      while (next_sample < sample_times.size() && sample_times[next_sample] <= t + 1e-9) {
+        const auto t0 = Clock::now();
+        renderer.render_camera(m, d, world.camera_id(), cam.width_px, cam.height_px, render);
+        camera.add(render);
+        res.render_ms += ms_since(t0);
+        ++next_sample;
+      }
+      if (next_sample >= sample_times.size() && t + 1e-9 >= camera_exposure_end(s.camera, next_frame_t)) {
+        const CameraFrame frame = camera.finish(frame_index, world.X_WC());
+        exposing = false;
+        ++frame_index;
+        next_frame_t += frame_period;
+        ++frames;
+        const auto t0 = Clock::now();
+        RingDetection det = detector.detect(frame.bgr);
+        const double proc_ms = ms_since(t0);
+        res.estimator_ms += proc_ms;
+        const double t_mid = frame.exposure.mid();
+        if (s.faults.vision_outlier_t_s >= 0 && t_mid >= s.faults.vision_outlier_t_s &&
+            vision_outliers_left == 0 && s.faults.vision_outlier_frames > 0 &&
+            res.outliers_injected == 0) {
+          vision_outliers_left = s.faults.vision_outlier_frames;
+        }
+        if (det.detected && vision_outliers_left > 0) {
+          // Injected fault: the pose jumps along the optical axis.
+          det.X_CP.translation().z() += s.faults.vision_outlier_m;
+          --vision_outliers_left;
+          ++res.outliers_injected;
+        }
+        if (det.detected) {
+          ++detections;
+          if (det.keyframe) ++keyframes;
+          if (det.keyframe_status == KeyframeStatus::Rejected) ++keyframes_rejected;
+        } else {
+          ++not_detected_reasons[to_string(det.status)];
+        }
+        const double latency = s.estimator.measured_latency ? proc_ms * 1e-3 : s.estimator.vision_latency_s;
+        const double deliver = frame.exposure.t_end_s + latency;
+        vision_q.push(to_platform_observation(det, t_mid), deliver);
+        if (det.detected && det.keyframe) {
+          vision_alt_q.push({t_mid, height_above_target_m(det.X_CP, mount.X_BC())}, deliver);
+        }
+        if (o.video) {
+          cv::Mat small;
+          cv::resize(frame.bgr, small, cv::Size(vw, vh), 0, 0, cv::INTER_AREA);
+          if (s.video.overlays) {
+            draw_detection(small, det, static_cast<double>(vw) / cam.width_px);
+            const AltitudeEstimate a = fusion.estimate();
+            put_text(small, fmt("t %.2f s   mode %s", t_mid) + ctl::to_string(controller.mode()), 0);
+            put_text(small, fmt("fused height above surface %.2f m   z %.2f m", a.h_surface_m, a.z_W_m), 1);
+            put_text(small, det.detected ? fmt("rings %.0f  reproj %.2f px  rho %.4f%s", det.centres.size(), det.reproj_err_px, det.rho) +
+                                               (det.keyframe ? "" : "  (not a keyframe)")
+                                         : std::string("no target: ") + to_string(det.status), 2);
+          }
+          cam_video->write(small);
+          cv::Mat chase;
+          mjvCamera cc;
+          mjv_defaultCamera(&cc);
+          cc.type = mjCAMERA_FREE;
+          const Eigen::Vector3d p = world.X_WB().translation();
+          for (int i = 0; i < 3; ++i) cc.lookat[i] = p[i];
+          cc.distance = s.video.chase_distance_m;
+          cc.elevation = -30;
+          cc.azimuth = 200;
+          renderer.render_free(m, d, cc, s.video.chase_width_px, s.video.chase_height_px, chase);
+          if (s.video.overlays) {
+            put_text(chase, fmt("t %.2f s  mode ", t_mid) + ctl::to_string(controller.mode()), 0);
+          }
+          chase_video->write(chase);
+        }
+        last_det = det;
+        last_det_t = t_mid;
+      }
+    }
+
+    // ---- vehicle forces: motors, per-rotor ground effect, wind drag ----
+    const auto tp0 = Clock::now();
+    motors.step(w_cmd, dt);
+    const Eigen::Isometry3d X_WB = world.X_WB();
+    RotorArray ge;
+    for (int r = 0; r < kNumRotors; ++r) {
+      const Eigen::Vector3d p_rotor(d->site_xpos + 3 * world.rotor_site(r));
+      const double h = world.ray_distance(p_rotor, -Eigen::Vector3d::UnitZ());
+      ge[r] = h > 0 ? ground_effect_factor(s.vehicle.model.ground_effect, h) : 1.0;
+    }
+    const BodyWrench wr = rotor_wrench(rp, motors.speeds_radps(), ge);
+    const Eigen::Vector3d air = wind.step(dt);
+    const Eigen::Vector3d drag_W = drag_force_W(s.wind, X_WB.linear(), world.v_WB(), air);
+    const Eigen::Vector3d f_W = X_WB.linear() * wr.force_B_N + drag_W;
+    const Eigen::Vector3d tau_W = X_WB.linear() * wr.torque_B_Nm;
+    for (int i = 0; i < 3; ++i) {
+      d->xfrc_applied[6 * vb + i] = f_W[i];
+      d->xfrc_applied[6 * vb + 3 + i] = tau_W[i];
+    }
+    cart_drive.apply(world, cart_reference(s.cart, t));
+    mj_step(m, d);
+    res.physics_ms += ms_since(tp0);
+    const double tn = (k + 1) * dt;
+
+    // ---- truth ----
+    VehicleTruth truth;
+    truth.t_s = tn;
+    truth.X_WB = world.X_WB();
+    truth.v_W_mps = world.v_WB();
+    truth.omega_B_radps = world.omega_B();
+    truth.a_W_mps2 = (truth.v_W_mps - v_prev) / dt;
+    v_prev = truth.v_W_mps;
+    truth.h_surface_m = world.ray_distance(truth.X_WB.translation(), -Eigen::Vector3d::UnitZ());
+    if (truth.h_surface_m < 0) truth.h_surface_m = std::numeric_limits<double>::quiet_NaN();
+    const double range = world.ray_distance(truth.X_WB.translation(), -truth.X_WB.linear().col(2));
+    truth.range_m = range < 0 ? std::numeric_limits<double>::infinity() : range;
+    double thrust = 0;
+    for (double w : motors.speeds_radps()) thrust += rotor_thrust_N(rp, w);
+    truth.thrust_fraction = thrust / (kNumRotors * rotor_thrust_N(rp, rp.w_max_radps));
+    if (!truth.X_WB.translation().allFinite() || truth.X_WB.translation().norm() > 1e4) {
+      throw std::runtime_error(fmt("the vehicle state diverged at t = %.3f s", tn));
+    }
+
+    // ---- sensors -> queues ----
+    const auto tc0 = Clock::now();
+    if (imu.due(tn)) imu_q.push(imu.sample(truth), tn + s.sensors.imu.latency_s);
+    if (baro.due(tn)) baro_q.push(baro.sample(truth), tn + s.sensors.baro.latency_s);
+    if (gps.due(tn)) gps_q.push(gps.sample(truth), tn + s.sensors.gps.latency_s);
+    if (sonar.due(tn)) sonar_q.push(sonar.sample(truth), tn + s.sensors.ultrasonic.latency_s);
+
+    // ---- flight software: estimation ----
+    for (const BaroSample& b : baro_q.pop_ready(tn)) {
+      if (!fusion_started) {
+        fusion.reset(b.t_s, isa_altitude_m(b.pressure_pa) - s.estimator.altitude.baro_origin_msl_m, 0.0);
+        fusion_started = true;
+      }
+      fusion.update_baro(b);
+    }
+    for (const GpsSample& g : gps_q.pop_ready(tn)) {
+      nav.add_gps(g);
+      if (fusion_started) fusion.update_gps(g);
+    }
+    for (const UltrasonicSample& u : sonar_q.pop_ready(tn)) {
+      if (fusion_started) fusion.update_ultrasonic(u);
+    }
+    for (const auto& va : vision_alt_q.pop_ready(tn)) {
+      if (fusion_started) fusion.update_vision(va.first, va.second);
+    }
+    for (const PlatformObservation& ob : vision_q.pop_ready(tn)) controller.on_vision(ob);
+    for (const ImuSample& s_imu : imu_q.pop_ready(tn)) {
+      nav.add_imu(s_imu);
+      last_imu = s_imu;
+      have_imu = true;
+      const NavState ns = nav.state();
+      if (fusion_started) {
+        fusion.predict(s_imu, ns.q_WB, s.sensors.imu.gravity_mps2);
+        controller.on_altitude(fusion.estimate());
+      }
+      // ---- controller inner loop, on every IMU sample ----
+      if (ns.valid) {
+        const ctl::RotorCommand cmd = controller.step(s_imu.t_s, ns, s_imu);
+        for (int r = 0; r < kNumRotors; ++r) w_cmd[r] = cmd.w_radps[r];
+      }
+    }
+    res.control_ms += ms_since(tc0);
+
+    // ---- truth metrics: fusion error, contact ----
+    const Eigen::Isometry3d X_WP = world.X_WP();
+    if (fusion_started) {
+      const AltitudeEstimate a = fusion.estimate();
+      fused_z_err.add(a.z_W_m - truth.X_WB.translation().z());
+      if (std::isfinite(truth.h_surface_m)) fused_h_err.add(a.h_surface_m - truth.h_surface_m);
+    }
+    bool on_platform = false, on_ground = false;
+    for (int c = 0; c < d->ncon; ++c) {
+      const mjContact& con = d->contact[c];
+      const bool ours = con.geom1 == skid_geoms[0] || con.geom1 == skid_geoms[1] ||
+                        con.geom2 == skid_geoms[0] || con.geom2 == skid_geoms[1] ||
+                        m->geom_bodyid[con.geom1] == vb || m->geom_bodyid[con.geom2] == vb;
+      if (!ours) continue;
+      const int other = m->geom_bodyid[con.geom1] == vb ? con.geom2 : con.geom1;
+      if (other == platform_geom) on_platform = true;
+      if (other == ground_geom) on_ground = true;
+    }
+    if ((on_platform || on_ground) && t_first_contact < 0) {
+      t_first_contact = tn;
+      const Eigen::Vector3d p_PB = X_WP.inverse() * truth.X_WB.translation();
+      const Eigen::Vector3d qd = world.cart_qd();
+      const Eigen::Vector3d r = truth.X_WB.translation() - X_WP.translation();
+      const Eigen::Vector3d v_platform(qd.x() - qd.z() * r.y(), qd.y() + qd.z() * r.x(), 0.0);
+      const double tilt = std::acos(std::clamp(truth.X_WB.linear().col(2).dot(X_WP.linear().col(2)), -1.0, 1.0));
+      touchdown["surface"] = on_platform ? "platform" : "ground";
+      touchdown["t_s"] = tn;
+      touchdown["offset_m"] = p_PB.head<2>().norm();
+      touchdown["offset_P_m"] = Json::array();
+      touchdown["offset_P_m"].push(p_PB.x());
+      touchdown["offset_P_m"].push(p_PB.y());
+      touchdown["rel_speed_mps"] = (truth.v_W_mps - v_platform).norm();
+      touchdown["rel_vertical_speed_mps"] = truth.v_W_mps.z() - v_platform.z();
+      touchdown["tilt_deg"] = tilt * 180.0 / M_PI;
+      touchdown["mode_at_contact"] = ctl::to_string(controller.mode());
+    }
+    if (on_ground) touched_ground = true;
+    // Landed: resting on the platform, motors cut, upright, for 1 s.
+    const double tilt_now = std::acos(std::clamp(truth.X_WB.linear().col(2).dot(X_WP.linear().col(2)), -1.0, 1.0));
+    const bool resting = on_platform && !on_ground && controller.diagnostics().motors_cut &&
+                         tilt_now < 20.0 * M_PI / 180.0;
+    if (resting) {
+      if (t_landed_confirm < 0) t_landed_confirm = tn;
+    } else {
+      t_landed_confirm = -1;
+    }
+    if (tilt_now > 80.0 * M_PI / 180.0 && (on_ground || on_platform)) {
+      outcome = "crashed";
+      outcome_detail = fmt("vehicle tipped over (tilt %.0f deg) at t = %.2f s", tilt_now * 180 / M_PI, tn);
+      res.sim_s = tn;
+      break;
+    }
+    if (touched_ground && !on_platform && truth.X_WB.translation().z() < 0.5) {
+      outcome = "touched_ground";
+      outcome_detail = fmt("the landing gear touched the ground at t = %.2f s", tn);
+      res.sim_s = tn;
+      break;
+    }
+    if (t_landed_confirm >= 0 && tn - t_landed_confirm >= 1.0) {
+      outcome = "landed";
+      outcome_detail = "resting on the platform with motors cut for 1 s";
+      res.sim_s = tn;
+      break;
+    }
+
+    // ---- trace ----
+    if (k % trace_every == 0) {
+      const NavState ns = nav.state();
+      const AltitudeEstimate a = fusion.estimate();
+      const auto& dg = controller.diagnostics();
+      const Eigen::Vector3d rpy = rpy_of(truth.X_WB.linear()), nrpy = rpy_of(ns.q_WB.toRotationMatrix());
+      const Eigen::Vector3d pw = truth.X_WB.translation(), pp = X_WP.translation();
+      char buf[2048];
+      int n = std::snprintf(
+          buf, sizeof(buf),
+          "%.4f,%s,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,"
+          "%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%d",
+          tn, ctl::to_string(controller.mode()), pw.x(), pw.y(), pw.z(), rpy.x(), rpy.y(), rpy.z(),
+          truth.v_W_mps.x(), truth.v_W_mps.y(), truth.v_W_mps.z(), pp.x(), pp.y(), pp.z(),
+          rpy_of(X_WP.linear()).z(), ns.p_W_m.x(), ns.p_W_m.y(), ns.p_W_m.z(), ns.v_W_mps.x(),
+          ns.v_W_mps.y(), ns.v_W_mps.z(), nrpy.x(), nrpy.y(), nrpy.z(), a.z_W_m, a.h_surface_m,
+          std::isfinite(truth.h_surface_m) ? truth.h_surface_m : -1.0, dg.platform_W_m.x(),
+          dg.platform_W_m.y(), dg.platform_W_m.z(), dg.horizontal_error_m,
+          (pw - pp).head<2>().norm(), dg.setpoint.p_W_m.x(), dg.setpoint.p_W_m.y(),
+          dg.setpoint.p_W_m.z(), (last_det_t >= 0 && last_det.detected) ? 1 : 0);
+      for (double w : motors.speeds_radps()) n += std::snprintf(buf + n, sizeof(buf) - n, ",%.2f", w);
+      trace << buf << "\n";
+    }
+    res.sim_s = tn;
+    if (o.progress && k % 5000 == 0) {
+      std::cerr << "\rt = " << fmt("%.1f", tn) << " s  mode " << ctl::to_string(controller.mode())
+                << "            " << std::flush;
+    }
+  }
+  if (o.progress) std::cerr << "\n";
+  res.wall_s = std::chrono::duration<double>(Clock::now() - wall0).count();
+  res.frames = frames;
+  if (cam_video) cam_video->close();
+  if (chase_video) chase_video->close();
+  if (outcome == "timeout") {
+    outcome_detail = fmt("no landing within duration_s = %.1f s", s.duration_s);
+  }
+
+  // ---- summary ----
+  const bool landed = outcome == "landed";
+  summary["landed"] = landed;
+  summary["outcome"] = outcome;
+  summary["outcome_detail"] = outcome_detail;
+  const Json* off = touchdown.find("offset_m");
+  summary["touchdown_offset_m"] = off ? off->number() : std::nan("");
+  const Json* rs = touchdown.find("rel_speed_mps");
+  summary["touchdown_rel_speed_mps"] = rs ? rs->number() : std::nan("");
+  const Json* tl = touchdown.find("tilt_deg");
+  summary["touchdown_tilt_deg"] = tl ? tl->number() : std::nan("");
+  summary["time_to_land_s"] = t_first_contact >= 0 ? t_first_contact : std::nan("");
+  summary["touchdown"] = touchdown;
+  Json transitions = Json::array();
+  for (const auto& tr : controller.transitions()) {
+    Json j = Json::object();
+    j["t_s"] = tr.t_s;
+    j["from"] = ctl::to_string(tr.from);
+    j["to"] = ctl::to_string(tr.to);
+    j["reason"] = tr.reason;
+    transitions.push(j);
+  }
+  summary["mode_transitions"] = transitions;
+  summary["final_mode"] = ctl::to_string(controller.mode());
+  Json vision = Json::object();
+  vision["frames"] = frames;
+  vision["detections"] = detections;
+  vision["keyframes"] = keyframes;
+  vision["keyframes_rejected"] = keyframes_rejected;
+  Json reasons = Json::object();
+  for (const auto& kv : not_detected_reasons) reasons[kv.first] = kv.second;
+  vision["not_detected_by_reason"] = reasons;
+  vision["outliers_injected"] = res.outliers_injected;
+  summary["vision"] = vision;
+  Json alt = Json::object();
+  alt["fused_z_rmse_m"] = fused_z_err.rmse_m();
+  alt["fused_z_max_m"] = fused_z_err.max_abs_m;
+  alt["fused_h_surface_rmse_m"] = fused_h_err.rmse_m();
+  alt["fused_h_surface_max_m"] = fused_h_err.max_abs_m;
+  summary["altitude_fusion"] = alt;
+  return res;
+}
+
+}  // namespace lander::sim
