@@ -64,7 +64,8 @@ Eigen::Isometry3d bench_camera_pose_P(double altitude_m, double tilt_deg, double
 // `overall`, `by_altitude_m` and `by_blur_px` objects of metrics: detection_rate,
 // false_positive_rate, centre_err_px_mean (centres for ours, corners for the squares, against
 // the true projections), reproj_err_px_mean and reproj_err_px_var (eq. 30 as a per-frame RMS),
-// pos_err_m_mean, rot_err_deg_mean, ms_per_frame_median (one thread), frames, empty_frames;
+// pos_err_m_mean, rot_err_deg_mean, ms_per_frame_median (thread CPU time of one detection,
+// one thread, so a loaded machine does not inflate it), frames, empty_frames;
 // plus `ours.overall.ms_per_frame_median_tracking`, and `config`.
 // `progress`, if given, receives one line per altitude.
 std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isometry3d& X_WP,
