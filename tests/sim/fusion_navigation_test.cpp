@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <string>
 #include <functional>
 #include <iostream>
 
@@ -11,6 +13,13 @@
 
 namespace lander::sim {
 namespace {
+
+// Runs use seed 1 unless LANDER_TEST_SEED is set (to check that a pass is not one lucky draw:
+// for s in $(seq 1 40); do LANDER_TEST_SEED=$s ./fusion_..._test; done).
+std::uint64_t seed_from_env() {
+  const char* s = std::getenv("LANDER_TEST_SEED");
+  return s ? std::stoull(s) : 1;
+}
 
 constexpr double kG = 9.81;
 constexpr double kDeg = M_PI / 180.0;
@@ -60,7 +69,9 @@ struct NavResult {
   double tilt_err_rms_deg{0}, tilt_err_max_deg{0};
   double pos_h_rmse_m{0}, vel_rmse_mps{0};
   double max_pos_err_in_window_m{0};
+  double max_pos_err_growth_in_window_m{0};  // |e(t) - e(window start)|, horizontal
   Eigen::Vector3d gyro_bias_err{Eigen::Vector3d::Zero()};
+  Eigen::Vector3d accel_bias_B{Eigen::Vector3d::Zero()};  // the IMU's (truth) at the end
 };
 
 // Roll/pitch error: angle between the true and estimated "up" seen in B, R^T e_z. This is
@@ -74,13 +85,15 @@ double tilt_error_deg(const Eigen::Matrix3d& R_true, const Eigen::Quaterniond& q
 
 NavResult run(const Traj& tr, double T, NavigationParams np, SensorSuiteParams sp,
               double window_t0 = -1, double window_t1 = -1, double settle_s = 20.0) {
-  ImuModel imu(sp.imu, 11);
-  GpsModel gps(sp.gps, 12);
+  const std::uint64_t sd = seed_from_env();
+  ImuModel imu(sp.imu, 10 + sd);
+  GpsModel gps(sp.gps, 11 + sd * 7);
   // A scripted drop-out [window_t0, window_t1): those fixes are not delivered.
   DelayQueue<GpsSample> qg;
   Navigation nav(np);
   NavResult r;
   double ss_tilt = 0, ss_p = 0, ss_v = 0;
+  Eigen::Vector2d e_start = Eigen::Vector2d::Zero();
   int n = 0;
   for (int k = 0; k <= static_cast<int>(T * 1000); ++k) {
     const double t = k * 1e-3;
@@ -100,9 +113,12 @@ NavResult run(const Traj& tr, double T, NavigationParams np, SensorSuiteParams s
       ss_p += (s.p_W_m - v.X_WB.translation()).head<2>().squaredNorm() / 2;
       ss_v += (s.v_W_mps - v.v_W_mps).squaredNorm() / 3;
       ++n;
+      const Eigen::Vector2d ep = (s.p_W_m - v.X_WB.translation()).head<2>();
+      if (t < window_t0) e_start = ep;
       if (t >= window_t0 && t < window_t1 + 1.0) {
-        r.max_pos_err_in_window_m =
-            std::max(r.max_pos_err_in_window_m, (s.p_W_m - v.X_WB.translation()).head<2>().norm());
+        r.max_pos_err_in_window_m = std::max(r.max_pos_err_in_window_m, ep.norm());
+        r.max_pos_err_growth_in_window_m =
+            std::max(r.max_pos_err_growth_in_window_m, (ep - e_start).norm());
       }
     }
   }
@@ -110,6 +126,7 @@ NavResult run(const Traj& tr, double T, NavigationParams np, SensorSuiteParams s
   r.pos_h_rmse_m = std::sqrt(ss_p / n);
   r.vel_rmse_mps = std::sqrt(ss_v / n);
   r.gyro_bias_err = nav.gyro_bias_B() - imu.gyro_bias_B();
+  r.accel_bias_B = imu.accel_bias_B();
   return r;
 }
 
@@ -131,14 +148,21 @@ TEST(FusionNavigation, StaticTiltConvergesAndEstimatesGyroBias) {
   np.compensate_accel = false;  // plain Mahony: gravity is the only reference
   SensorSuiteParams sp;  // default IMU: 5 mrad/s turn-on gyro bias, 0.05 m/s^2 accel bias
   const NavResult r = run(tr, 120.0, np, sp, -1, -1, 60.0);
-  // The accelerometer bias (0.05 m/s^2 per axis, 1 sigma) tilts the gravity reference by
-  // |b| / g ~ 0.4 deg; white accel noise averaged by kp = 1 s adds < 0.05 deg.
-  constexpr double kTiltTolerance_deg = 0.7;
-  EXPECT_LT(r.tilt_err_max_deg, kTiltTolerance_deg);
+  // The accelerometer bias of this run tilts the gravity reference by b_perp / g, with b_perp
+  // its part across the true "up" in B: the attitude cannot be better than that. On top:
+  // white accel noise averaged over 1/kp = 1 s (0.03 / sqrt(250) rad, < 0.01 deg), the
+  // residual gyro bias over kp (< 2e-3 rad/s -> 0.1 deg) and the accel bias random walk.
+  const Eigen::Vector3d up_B = tr.R_fixed.transpose().col(2);
+  const Eigen::Vector3d b_perp = r.accel_bias_B - r.accel_bias_B.dot(up_B) * up_B;
+  const double bias_tilt_deg = std::atan(b_perp.norm() / kG) / kDeg;
+  constexpr double kTiltBeyondBias_deg = 0.2;
+  EXPECT_LT(r.tilt_err_max_deg, bias_tilt_deg + kTiltBeyondBias_deg);
   // Gyro bias components about the horizontal world axes are observable through gravity
-  // (about the vertical they are not). Mahony's integral term drives them to within the
-  // bias random walk over its ~1/ki = 20 s memory (1e-4 * sqrt(20) = 4.5e-4 rad/s).
-  constexpr double kGyroBiasTolerance_radps = 5e-4;
+  // (about the vertical they are not). Mahony's integral term follows them with a ~1/ki =
+  // 20 s memory, over which the bias random walk moves 1e-4 * sqrt(20) = 4.5e-4 rad/s per
+  // axis (1 sigma): 3 sigma over two axes is 4.5e-4 * 3 * sqrt(2) = 1.9e-3 rad/s, well under
+  // the 5e-3 rad/s turn-on bias it started from.
+  constexpr double kGyroBiasTolerance_radps = 1.9e-3;
   const Eigen::Vector3d err_W = tr.R_fixed * r.gyro_bias_err;
   EXPECT_LT(err_W.head<2>().norm(), kGyroBiasTolerance_radps);
 }
@@ -192,11 +216,13 @@ TEST(FusionNavigation, CircleWithSensorErrors) {
   std::cout << "circle: tilt rms " << r.tilt_err_rms_deg << " deg (plain Mahony "
             << u.tilt_err_rms_deg << "), max " << r.tilt_err_max_deg << " deg, pos rmse "
             << r.pos_h_rmse_m << " m, vel rmse " << r.vel_rmse_mps << " m/s\n";
-  // Plain Mahony takes the 4.7 deg bank for "level"; compensation removes a good part of
-  // that. What remains comes from the yaw drift (no magnetometer: 5 mrad/s gyro bias turns
-  // the subtracted acceleration) and the GPS-derived acceleration noise.
+  // Plain Mahony takes the 4.7 deg bank for "level"; compensation removes part of that.
+  // What remains comes from the yaw drift (no magnetometer: the z gyro bias turns the
+  // subtracted acceleration by the yaw error psi, leaving 2 sin(psi / 2) of it, less than
+  // all of it while |psi| < 60 deg, i.e. over these 120 s for a z bias under 8.7 mrad/s,
+  // 1.7 sigma of the default IMU) and the GPS-derived acceleration noise.
   EXPECT_GT(u.tilt_err_rms_deg, 3.5);
-  EXPECT_LT(r.tilt_err_rms_deg, 0.75 * u.tilt_err_rms_deg);
+  EXPECT_LT(r.tilt_err_rms_deg, u.tilt_err_rms_deg);
   // Position cannot beat the GPS's correlated error (0.7 m std, 10 s correlation time),
   // but must not add to it (1.2x for the finite sample); velocity is smoothed below the
   // GPS's 0.1 m/s white noise.
@@ -210,11 +236,14 @@ TEST(FusionNavigation, CoastsThroughGpsDropout) {
   NavigationParams np;
   SensorSuiteParams sp;
   const NavResult r = run(tr, 60.0, np, sp, 30.0, 33.0);
-  // 3 s of accelerometer coasting: position error = GPS error at the start (~0.7 m, up to
-  // 3 sigma = 2.1 m) plus drift from the residual accel bias (<0.05 m/s^2: 0.5 b t^2 ~ 0.2 m)
-  // and velocity error (0.05 m/s x 3 s).
-  constexpr double kCoastTolerance_m = 2.5;
-  EXPECT_LT(r.max_pos_err_in_window_m, kCoastTolerance_m);
+  // 3 s of accelerometer coasting (plus the 1 s until fixes are back in the filter). The
+  // error at the start is the GPS's own (correlated, ~0.7 m); what the drop-out adds is the
+  // drift: residual horizontal acceleration error (accel bias estimate ~0.05 m/s^2 plus
+  // ~1 deg of tilt, 0.17 m/s^2) over 4 s, 0.5 * 0.22 * 16 = 1.8 m, plus a 0.1 m/s velocity
+  // error over 4 s, 0.4 m.
+  constexpr double kCoastGrowth_m = 2.2;
+  EXPECT_LT(r.max_pos_err_growth_in_window_m, kCoastGrowth_m);
+  std::cout << "drop-out: error growth " << r.max_pos_err_growth_in_window_m << " m\n";
 }
 
 }  // namespace

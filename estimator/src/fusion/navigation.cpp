@@ -60,7 +60,9 @@ void Navigation::add_imu(const ImuSample& imu) {
   while (!f_W_hist_.empty() && f_W_hist_.front().first < t_s_ - kHistory_s) f_W_hist_.pop_front();
   Eigen::Vector3d e_B = Eigen::Vector3d::Zero();
   bool use = false;
-  if (p_.compensate_accel && have_a_gps_) {
+  // The GPS-derived correction is only held while fixes keep coming (drop-out: plain Mahony).
+  constexpr double kHoldMax_s = 1.0;
+  if (p_.compensate_accel && have_a_gps_ && t_s_ - t_gps_prev_ < kHoldMax_s) {
     // Error computed at the last GPS fix (add_gps), rotated into B with today's attitude.
     use = e_W_hold_.allFinite() && !e_W_hold_.isZero(0.0);
     e_B = q_WB_.conjugate() * e_W_hold_;

@@ -13,7 +13,8 @@
 // the comparison is made in W between two equally low-passed specific forces (time
 // constant accel_lowpass_s, so their lags cancel), at each GPS fix, with the IMU side
 // taken at the time the GPS velocity difference refers to (mid-interval of the two fixes),
-// and the resulting error held until the next fix:
+// and the resulting error held until the next fix (for at most 1 s; in a GPS drop-out the
+// filter falls back to plain Mahony):
 //   measured  f^_W = LP(R^_WB f_B),   reference  f_W = LP(a_gps) + g e_z,
 //   e_W = f^_W/|f^_W| x f_W/|f_W|,  w += kp R^_WB^T e_W,  db^/dt = -ki R^_WB^T e_W,
 // with a_gps the difference of successive GPS velocities. While the horizontal acceleration
