@@ -72,6 +72,8 @@ struct NavResult {
   double max_pos_err_growth_in_window_m{0};  // |e(t) - e(window start)|, horizontal
   Eigen::Vector3d gyro_bias_err{Eigen::Vector3d::Zero()};
   Eigen::Vector3d accel_bias_B{Eigen::Vector3d::Zero()};  // the IMU's (truth) at the end
+  Eigen::Vector3d gyro_bias_B{Eigen::Vector3d::Zero()};   // the IMU's (truth) at the end
+  double gps_h_rmse_m{0};  // raw GPS fixes' horizontal error over the same period
 };
 
 // Roll/pitch error: angle between the true and estimated "up" seen in B, R^T e_z. This is
@@ -94,6 +96,8 @@ NavResult run(const Traj& tr, double T, NavigationParams np, SensorSuiteParams s
   NavResult r;
   double ss_tilt = 0, ss_p = 0, ss_v = 0;
   Eigen::Vector2d e_start = Eigen::Vector2d::Zero();
+  double ss_gps = 0;
+  int n_gps = 0;
   int n = 0;
   for (int k = 0; k <= static_cast<int>(T * 1000); ++k) {
     const double t = k * 1e-3;
@@ -102,6 +106,10 @@ NavResult run(const Traj& tr, double T, NavigationParams np, SensorSuiteParams s
     if (gps.due(t)) qg.push(gps.sample(v), t + sp.gps.latency_s);
     for (const auto& g : qg.pop_ready(t)) {
       if (g.t_s >= window_t0 && g.t_s < window_t1) continue;  // scripted drop-out
+      if (g.t_s >= settle_s) {
+        ss_gps += (g.p_W_m - truth_at(tr, g.t_s).X_WB.translation()).head<2>().squaredNorm() / 2;
+        ++n_gps;
+      }
       nav.add_gps(g);
     }
     if (k % 20 == 0 && t >= settle_s) {
@@ -127,6 +135,8 @@ NavResult run(const Traj& tr, double T, NavigationParams np, SensorSuiteParams s
   r.vel_rmse_mps = std::sqrt(ss_v / n);
   r.gyro_bias_err = nav.gyro_bias_B() - imu.gyro_bias_B();
   r.accel_bias_B = imu.accel_bias_B();
+  r.gyro_bias_B = imu.gyro_bias_B();
+  r.gps_h_rmse_m = n_gps ? std::sqrt(ss_gps / n_gps) : 0.0;
   return r;
 }
 
@@ -215,18 +225,23 @@ TEST(FusionNavigation, CircleWithSensorErrors) {
   const NavResult u = run(circle(), 120.0, np, sp);
   std::cout << "circle: tilt rms " << r.tilt_err_rms_deg << " deg (plain Mahony "
             << u.tilt_err_rms_deg << "), max " << r.tilt_err_max_deg << " deg, pos rmse "
-            << r.pos_h_rmse_m << " m, vel rmse " << r.vel_rmse_mps << " m/s\n";
+            << r.pos_h_rmse_m << " m (GPS " << r.gps_h_rmse_m << " m), vel rmse "
+            << r.vel_rmse_mps << " m/s, z gyro bias " << r.gyro_bias_B.z() << " rad/s\n";
   // Plain Mahony takes the 4.7 deg bank for "level"; compensation removes part of that.
   // What remains comes from the yaw drift (no magnetometer: the z gyro bias turns the
   // subtracted acceleration by the yaw error psi, leaving 2 sin(psi / 2) of it, less than
   // all of it while |psi| < 60 deg, i.e. over these 120 s for a z bias under 8.7 mrad/s,
   // 1.7 sigma of the default IMU) and the GPS-derived acceleration noise.
   EXPECT_GT(u.tilt_err_rms_deg, 3.5);
-  EXPECT_LT(r.tilt_err_rms_deg, u.tilt_err_rms_deg);
+  constexpr double kYawDriftLimit_radps = 60.0 * kDeg / 120.0;  // 60 deg in 120 s
+  if (std::abs(r.gyro_bias_B.z()) < kYawDriftLimit_radps) {
+    EXPECT_LT(r.tilt_err_rms_deg, u.tilt_err_rms_deg);
+  }
   // Position cannot beat the GPS's correlated error (0.7 m std, 10 s correlation time),
-  // but must not add to it (1.2x for the finite sample); velocity is smoothed below the
-  // GPS's 0.1 m/s white noise.
-  EXPECT_LT(r.pos_h_rmse_m, 1.2 * sp.gps.horizontal_std_m);
+  // but must not add to it: compared with the raw fixes of the same run (5 % for the
+  // filter's lag); velocity is smoothed below the GPS's 0.1 m/s white noise.
+  constexpr double kNoWorseThanGps = 1.05;
+  EXPECT_LT(r.pos_h_rmse_m, kNoWorseThanGps * r.gps_h_rmse_m);
   EXPECT_LT(r.vel_rmse_mps, sp.gps.velocity_std_mps);
 }
 
