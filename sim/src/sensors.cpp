@@ -162,4 +162,37 @@ UltrasonicSample UltrasonicModel::sample(const VehicleTruth& truth) {
   return s;
 }
 
+// ------------------------------------------------------------------------------- suite
+std::uint64_t derive_seed(std::uint64_t scenario_seed, std::uint64_t stream) {
+  // SplitMix64 (Steele, Lea, Flood 2014) of the seed advanced by `stream` golden-ratio steps.
+  std::uint64_t z = scenario_seed + (stream + 1) * 0x9E3779B97F4A7C15ull;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+SensorSuite::SensorSuite(const SensorSuiteParams& p, std::uint64_t scenario_seed)
+    : p_((p.validate(), p)),
+      imu_(p.imu, derive_seed(scenario_seed, 1)),
+      baro_(p.baro, derive_seed(scenario_seed, 2)),
+      gps_(p.gps, derive_seed(scenario_seed, 3)),
+      us_(p.ultrasonic, derive_seed(scenario_seed, 4)) {}
+
+void SensorSuite::sample(const VehicleTruth& truth) {
+  const double t = truth.t_s;
+  if (imu_.due(t)) q_imu_.push(imu_.sample(truth), t + p_.imu.latency_s);
+  if (baro_.due(t)) q_baro_.push(baro_.sample(truth), t + p_.baro.latency_s);
+  if (gps_.due(t)) q_gps_.push(gps_.sample(truth), t + p_.gps.latency_s);
+  if (us_.due(t)) q_us_.push(us_.sample(truth), t + p_.ultrasonic.latency_s);
+}
+
+SensorSuite::Delivered SensorSuite::deliver(double t_s) {
+  Delivered d;
+  d.imu = q_imu_.pop_ready(t_s);
+  d.baro = q_baro_.pop_ready(t_s);
+  d.gps = q_gps_.pop_ready(t_s);
+  d.ultrasonic = q_us_.pop_ready(t_s);
+  return d;
+}
+
 }  // namespace lander::sim

@@ -424,5 +424,39 @@ TEST(Sensors, SameSeedSameSamples) {
   }
 }
 
+TEST(SensorSuite, RatesLatenciesAndSeeds) {
+  SensorSuiteParams p;
+  SensorSuite a(p, 42), b(p, 42), c(p, 43);
+  int n_imu = 0, n_baro = 0, n_gps = 0, n_us = 0;
+  bool differs = false;
+  for (int k = 0; k <= 2000; ++k) {  // 2 s of a 1 kHz loop
+    const double t = k * 1e-3;
+    const VehicleTruth tr = at_rest(t, 2.0);
+    a.sample(tr);
+    b.sample(tr);
+    c.sample(tr);
+    const auto da = a.deliver(t), db = b.deliver(t), dc = c.deliver(t);
+    for (const auto& s : da.baro) EXPECT_NEAR(t - s.t_s, p.baro.latency_s, 1e-3 + 1e-9);
+    for (const auto& s : da.gps) EXPECT_NEAR(t - s.t_s, p.gps.latency_s, 1e-3 + 1e-9);
+    for (std::size_t i = 0; i < da.gps.size(); ++i) EXPECT_EQ(da.gps[i].p_W_m, db.gps[i].p_W_m);
+    for (std::size_t i = 0; i < da.gps.size() && i < dc.gps.size(); ++i) {
+      differs = differs || da.gps[i].p_W_m != dc.gps[i].p_W_m;
+    }
+    n_imu += da.imu.size();
+    n_baro += da.baro.size();
+    n_gps += da.gps.size();
+    n_us += da.ultrasonic.size();
+  }
+  EXPECT_TRUE(differs);
+  // Samples taken in [0, 2] s and delivered by 2 s: rate * (2 - latency) (+1 for t = 0).
+  EXPECT_EQ(n_imu, 501);
+  EXPECT_EQ(n_baro, static_cast<int>(std::floor(50 * (2.0 - 0.02) + 1e-9)) + 1);
+  EXPECT_EQ(n_gps, static_cast<int>(std::floor(5 * (2.0 - 0.1) + 1e-9)) + 1);
+  EXPECT_EQ(n_us, static_cast<int>(std::floor(20 * (2.0 - 0.01) + 1e-9)) + 1);
+  EXPECT_NE(derive_seed(1, 1), derive_seed(1, 2));
+  EXPECT_NE(derive_seed(1, 1), derive_seed(2, 1));
+  EXPECT_EQ(derive_seed(7, 3), derive_seed(7, 3));
+}
+
 }  // namespace
 }  // namespace lander::sim

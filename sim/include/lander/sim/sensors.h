@@ -339,4 +339,42 @@ void visit_fields(V& v, SensorSuiteParams& p) {
   v.nested("ultrasonic", p.ultrasonic);
 }
 
+// One independent seed per random stream from the scenario seed (SplitMix64 of seed and
+// stream index): the same scenario seed always gives the same streams.
+std::uint64_t derive_seed(std::uint64_t scenario_seed, std::uint64_t stream);
+
+// The four sensors with their delay queues, seeded from one scenario seed (streams 1-4 of
+// derive_seed: IMU, baro, GPS, ultrasonic). Per physics step the loop calls
+// sample(truth) (samples every sensor that is due, queues it for t + latency) and then
+// deliver(t) (everything whose delivery time has come, in sampling order per sensor).
+class SensorSuite {
+ public:
+  struct Delivered {
+    std::vector<ImuSample> imu;
+    std::vector<BaroSample> baro;
+    std::vector<GpsSample> gps;
+    std::vector<UltrasonicSample> ultrasonic;
+    bool empty() const { return imu.empty() && baro.empty() && gps.empty() && ultrasonic.empty(); }
+  };
+  SensorSuite(const SensorSuiteParams& p, std::uint64_t scenario_seed);  // validates p
+  void sample(const VehicleTruth& truth);
+  Delivered deliver(double t_s);
+  ImuModel& imu() { return imu_; }
+  BaroModel& baro() { return baro_; }
+  GpsModel& gps() { return gps_; }                  // e.g. gps().inject_offset(...)
+  UltrasonicModel& ultrasonic() { return us_; }     // e.g. ultrasonic().inject_garbage(...)
+  const SensorSuiteParams& params() const { return p_; }
+
+ private:
+  SensorSuiteParams p_;
+  ImuModel imu_;
+  BaroModel baro_;
+  GpsModel gps_;
+  UltrasonicModel us_;
+  DelayQueue<ImuSample> q_imu_;
+  DelayQueue<BaroSample> q_baro_;
+  DelayQueue<GpsSample> q_gps_;
+  DelayQueue<UltrasonicSample> q_us_;
+};
+
 }  // namespace lander::sim
