@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include <Eigen/Eigenvalues>
+#include <opencv2/imgproc.hpp>
 
 #include "estimator/support/vision_synth.h"
 #include "lander/estimator/vision_detector.h"
@@ -302,6 +303,17 @@ TEST(VisionDetector, ObservationAndJson) {
   EXPECT_EQ(j.front(), '{');
   EXPECT_EQ(j.back(), '}');
   EXPECT_GT(d.time_ms, 0.0);
+  // The same frame as 8-bit grey, 16-bit BGR and BGRA gives the same pose.
+  const cv::Mat bgr = test::render_view(g, kCam, X);
+  cv::Mat grey, bgr16, bgra;
+  cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
+  bgr.convertTo(bgr16, CV_16U, 256.0);
+  cv::cvtColor(bgr, bgra, cv::COLOR_BGR2BGRA);
+  for (const cv::Mat& img : {grey, bgr16, bgra}) {
+    const RingDetection e = detect_ring_target(img, kCam, g, {});
+    ASSERT_TRUE(e.detected) << e.reason;
+    EXPECT_LT(test::position_error_m(e.X_CP, d.X_CP), 1e-6);
+  }
 }
 
 }  // namespace

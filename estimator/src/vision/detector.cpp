@@ -68,22 +68,34 @@ struct PairCandidate {
   double err{1e9};
 };
 
-bool to_grey(const cv::Mat& img, cv::Mat& grey) {
-  cv::Mat g;
-  switch (img.channels()) {
-    case 1: g = img; break;
-    case 3: cv::cvtColor(img, g, cv::COLOR_BGR2GRAY); break;
-    case 4: cv::cvtColor(img, g, cv::COLOR_BGRA2GRAY); break;
-    default: return false;
+bool supported_image(const cv::Mat& img) {
+  const int ch = img.channels();
+  return (ch == 1 || ch == 3 || ch == 4) && (img.depth() == CV_8U || img.depth() == CV_16U);
+}
+
+// 8-bit grey frame in which at least `region` is converted: 8-bit grey input is used as is;
+// otherwise only `region` of a per-thread full-size buffer is converted (tracking then pays
+// for the ROI only).
+void grey_region(const cv::Mat& img, const cv::Rect& region, cv::Mat& grey) {
+  if (img.channels() == 1 && img.depth() == CV_8U) {
+    grey = img;
+    return;
   }
-  if (g.depth() == CV_8U) {
-    grey = g;
-  } else if (g.depth() == CV_16U) {
-    g.convertTo(grey, CV_8U, 1.0 / 256.0);
+  thread_local cv::Mat buf;
+  if (buf.size() != img.size()) buf.create(img.size(), CV_8UC1);
+  const cv::Mat src = img(region);
+  cv::Mat dst = buf(region);  // a view: the conversions below write into the buffer
+  const int code = img.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY;
+  if (img.depth() == CV_8U) {
+    cv::cvtColor(src, dst, code);
+  } else if (img.channels() == 1) {
+    src.convertTo(dst, CV_8U, 1.0 / 256.0);
   } else {
-    return false;
+    cv::Mat g16;
+    cv::cvtColor(src, g16, code);
+    g16.convertTo(dst, CV_8U, 1.0 / 256.0);
   }
-  return true;
+  grey = buf;
 }
 
 Eigen::Vector2d project(const Eigen::Matrix3d& K, const Eigen::Isometry3d& X_CP,
@@ -409,20 +421,20 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image) {
     d.reason = "empty image";
     return finish();
   }
-  cv::Mat grey;
-  if (!to_grey(image, grey)) {
+  if (!supported_image(image)) {
     d.status = VisionStatus::UnsupportedImage;
     d.reason = "unsupported pixel type (need 8/16-bit grey, BGR or BGRA)";
     return finish();
   }
-  if (grey.cols != camera_.width_px || grey.rows != camera_.height_px) {
+  if (image.cols != camera_.width_px || image.rows != camera_.height_px) {
     d.status = VisionStatus::ImageSizeMismatch;
-    d.reason = "image is " + std::to_string(grey.cols) + "x" + std::to_string(grey.rows) +
+    d.reason = "image is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
                ", calibration is " + std::to_string(camera_.width_px) + "x" +
                std::to_string(camera_.height_px);
     return finish();
   }
-  const cv::Rect full(0, 0, grey.cols, grey.rows);
+  cv::Mat grey;
+  const cv::Rect full(0, 0, image.cols, image.rows);
   bool done = false;
   if (params_.tracking && have_prediction_) {
     // Predicted region: the outer circles projected with the last pose, plus a margin.
@@ -458,12 +470,14 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image) {
                                               static_cast<int>(std::ceil(r.y + r.height)))) &
                            full;
       if (roi.width >= 16 && roi.height >= 16 && roi.area() < 0.7 * full.area()) {
+        grey_region(image, roi, grey);
         done = run_region(grey, roi, camera_, target_, params_, d);
         d.used_roi = done;
       }
     }
   }
-  if (!done && grey.cols >= 16 && grey.rows >= 16) {
+  if (!done && full.width >= 16 && full.height >= 16) {
+    grey_region(image, full, grey);
     run_region(grey, full, camera_, target_, params_, d);
   } else if (!done) {
     d.status = VisionStatus::NoEllipses;
