@@ -163,7 +163,7 @@ UltrasonicSample UltrasonicModel::sample(const VehicleTruth& truth) {
 }
 
 // ------------------------------------------------------------------------------- suite
-std::uint64_t derive_seed(std::uint64_t scenario_seed, std::uint64_t stream) {
+std::uint64_t sensor_stream_seed(std::uint64_t scenario_seed, std::uint64_t stream) {
   // SplitMix64 (Steele, Lea, Flood 2014) of the seed advanced by `stream` golden-ratio steps.
   std::uint64_t z = scenario_seed + (stream + 1) * 0x9E3779B97F4A7C15ull;
   z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
@@ -173,10 +173,10 @@ std::uint64_t derive_seed(std::uint64_t scenario_seed, std::uint64_t stream) {
 
 SensorSuite::SensorSuite(const SensorSuiteParams& p, std::uint64_t scenario_seed)
     : p_((p.validate(), p)),
-      imu_(p.imu, derive_seed(scenario_seed, 1)),
-      baro_(p.baro, derive_seed(scenario_seed, 2)),
-      gps_(p.gps, derive_seed(scenario_seed, 3)),
-      us_(p.ultrasonic, derive_seed(scenario_seed, 4)) {}
+      imu_(p.imu, sensor_stream_seed(scenario_seed, 1)),
+      baro_(p.baro, sensor_stream_seed(scenario_seed, 2)),
+      gps_(p.gps, sensor_stream_seed(scenario_seed, 3)),
+      us_(p.ultrasonic, sensor_stream_seed(scenario_seed, 4)) {}
 
 void SensorSuite::sample(const VehicleTruth& truth) {
   const double t = truth.t_s;

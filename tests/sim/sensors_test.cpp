@@ -453,9 +453,9 @@ TEST(SensorSuite, RatesLatenciesAndSeeds) {
   EXPECT_EQ(n_baro, static_cast<int>(std::floor(50 * (2.0 - 0.02) + 1e-9)) + 1);
   EXPECT_EQ(n_gps, static_cast<int>(std::floor(5 * (2.0 - 0.1) + 1e-9)) + 1);
   EXPECT_EQ(n_us, static_cast<int>(std::floor(20 * (2.0 - 0.01) + 1e-9)) + 1);
-  EXPECT_NE(derive_seed(1, 1), derive_seed(1, 2));
-  EXPECT_NE(derive_seed(1, 1), derive_seed(2, 1));
-  EXPECT_EQ(derive_seed(7, 3), derive_seed(7, 3));
+  EXPECT_NE(sensor_stream_seed(1, 1), sensor_stream_seed(1, 2));
+  EXPECT_NE(sensor_stream_seed(1, 1), sensor_stream_seed(2, 1));
+  EXPECT_EQ(sensor_stream_seed(7, 3), sensor_stream_seed(7, 3));
 }
 
 }  // namespace

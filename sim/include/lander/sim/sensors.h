@@ -341,10 +341,10 @@ void visit_fields(V& v, SensorSuiteParams& p) {
 
 // One independent seed per random stream from the scenario seed (SplitMix64 of seed and
 // stream index): the same scenario seed always gives the same streams.
-std::uint64_t derive_seed(std::uint64_t scenario_seed, std::uint64_t stream);
+std::uint64_t sensor_stream_seed(std::uint64_t scenario_seed, std::uint64_t stream);
 
 // The four sensors with their delay queues, seeded from one scenario seed (streams 1-4 of
-// derive_seed: IMU, baro, GPS, ultrasonic). Per physics step the loop calls
+// sensor_stream_seed: IMU, baro, GPS, ultrasonic). Per physics step the loop calls
 // sample(truth) (samples every sensor that is due, queues it for t + latency) and then
 // deliver(t) (everything whose delivery time has come, in sampling order per sensor).
 class SensorSuite {
