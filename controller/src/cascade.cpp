@@ -23,7 +23,12 @@ Eigen::Vector2d clamp_norm(const Eigen::Vector2d& v, double max_norm) {
 CascadeController::CascadeController(const VehicleParams& vehicle, const CascadeParams& gains)
     : v_(vehicle), g_(gains), mixer_(vehicle) {
   g_.validate();
+  tilt_limit_deg_ = g_.max_tilt_deg;
   reset();
+}
+
+void CascadeController::set_tilt_limit_deg(double deg) {
+  tilt_limit_deg_ = std::clamp(deg, 1.0, g_.max_tilt_deg);
 }
 
 void CascadeController::reset() {
@@ -59,7 +64,8 @@ Eigen::Quaterniond CascadeController::attitude_from_thrust(const Eigen::Vector3d
 }
 
 void CascadeController::update_outer(double t_s, const Setpoint& sp, const NavState& nav) {
-  const double dt = std::clamp(t_s - last_outer_t_, 0.0, kMaxOuterDt);
+  const bool first = last_outer_t_ < -1e299;  // nothing to integrate over on the first call
+  const double dt = first ? 0.0 : std::clamp(t_s - last_outer_t_, 0.0, kMaxOuterDt);
   last_outer_t_ = t_s;
   const double g = v_.gravity_mps2;
 
@@ -85,7 +91,7 @@ void CascadeController::update_outer(double t_s, const Setpoint& sp, const NavSt
   a_cmd.z() = std::clamp(a_cmd.z(), -g_.max_accel_z_mps2, g_.max_accel_z_mps2);
 
   // Tilt limit: |a_xy| <= (g + a_z) tan(max_tilt) keeps the thrust vector in the cone.
-  const double a_xy_max = (g + a_cmd.z()) * std::tan(g_.max_tilt_deg * kDegToRad);
+  const double a_xy_max = (g + a_cmd.z()) * std::tan(tilt_limit_deg_ * kDegToRad);
   a_cmd.head<2>() = clamp_norm(a_cmd.head<2>(), std::max(0.0, a_xy_max));
 
   force_sp_W_ = v_.mass_kg * (a_cmd + Eigen::Vector3d(0, 0, g));
@@ -99,7 +105,8 @@ void CascadeController::update_outer(double t_s, const Setpoint& sp, const NavSt
 
 MixerOutput CascadeController::update_inner(double t_s, const NavState& nav,
                                             const ImuSample& imu) {
-  const double dt = std::clamp(t_s - last_inner_t_, 0.0, kMaxInnerDt);
+  const bool first = last_inner_t_ < -1e299;
+  const double dt = first ? 0.0 : std::clamp(t_s - last_inner_t_, 0.0, kMaxInnerDt);
   last_inner_t_ = t_s;
   const Eigen::Vector3d J = v_.inertia_kgm2;
 

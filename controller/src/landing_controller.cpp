@@ -161,7 +161,8 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
   diag_.keyframe_streak = tracker_.keyframe_streak();
   diag_.platform_known = tracker_.has_fix();
   if (tracker_.has_fix()) {
-    diag_.platform_W_m = tracker_.position_now(t_s);
+    // The platform now, from the relative vector (navigation drift cancels), in W.
+    diag_.platform_W_m = nav.p_W_m + tracker_.relative_now(t_s, nav);
     diag_.platform_v_W_mps = tracker_.velocity();
     diag_.horizontal_error_m = horizontal(diag_.platform_W_m - nav.p_W_m);
     diag_.gear_clearance_m = nav.p_W_m.z() - diag_.platform_W_m.z() - L.gear_height_m;
@@ -245,7 +246,11 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       const Eigen::Vector3d eps(0, 0, L.approach_epsilon_m);
       if (t_s < approach_.td() && tracker_.has_fix() &&
           tracker_.latest().t_s > diag_.approach_t0_s) {
-        approach_.set_goal(tracker_.predict(approach_.td()) + eps);
+        // The goal moves towards the new prediction at a bounded rate.
+        Eigen::Vector3d step = tracker_.predict(approach_.td()) + eps - approach_.goal();
+        const double max_step = L.approach_goal_max_rate_mps * dt;
+        if (step.norm() > max_step) step *= max_step / step.norm();
+        approach_.set_goal(approach_.goal() + step);
         ++diag_.replans;
       }
       diag_.approach_goal_W_m = approach_.goal();
@@ -294,7 +299,7 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       // low and slow relative to the platform.
       const Eigen::Vector3d v_rel = nav.v_W_mps - diag_.platform_v_W_mps;
       std::string unsteady;
-      if (h < L.cut_height_m && e_xy < L.touchdown_error_m &&
+      if (in_view(t_s, L.descent_stale_s) && h < L.cut_height_m && e_xy < L.touchdown_error_m &&
           v_rel.norm() < L.max_touchdown_rel_speed_mps &&
           tracker_.steady(L.steady_window_s, L.steady_tilt_deg, L.max_platform_tilt_deg,
                           &unsteady)) {
@@ -321,7 +326,8 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
         recovery_z_sp_ = std::max(recovery_z_sp_, z_top + L.final_hold_height_m);
       }
       double vz_ff = 0.0;
-      if (e_xy < gate && recovery_z_sp_ > z_floor) {
+      const bool fresh = in_view(t_s, L.descent_stale_s);
+      if (fresh && e_xy < gate && recovery_z_sp_ > z_floor) {
         recovery_z_sp_ -= rate * dt;
         vz_ff = -rate;
       }
@@ -402,6 +408,10 @@ RotorCommand LandingController::step(double t_s, const NavState& nav, const ImuS
 
   if (started_ && nav.valid && cascade_.outer_due(t_s)) {
     last_sp_ = run_mode_machine(t_s, nav);
+    const bool tracking =
+        mode_ == Mode::kObserve || mode_ == Mode::kApproach || mode_ == Mode::kRecovery;
+    cascade_.set_tilt_limit_deg(tracking ? p_.landing.track_max_tilt_deg
+                                         : p_.cascade.max_tilt_deg);
     cascade_.update_outer(t_s, last_sp_, nav);
     diag_.setpoint = last_sp_;
   }

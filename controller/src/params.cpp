@@ -55,6 +55,7 @@ void TrackerParams::validate() const {
   require(fit_window_s > 0, "fit_window_s", "must be > 0");
   require(max_poly_extrapolation_s >= 0, "max_poly_extrapolation_s", "must be >= 0");
   require(velocity_window_s > 0, "velocity_window_s", "must be > 0");
+  require(relative_window_s > 0, "relative_window_s", "must be > 0");
   require(platform_max_speed_mps > 0, "platform_max_speed_mps", "must be > 0");
   require(history_s >= fit_window_s, "history_s", "must be >= fit_window_s");
   require(nav_history_s > 0, "nav_history_s", "must be > 0");
@@ -97,6 +98,10 @@ void LandingParams::validate() const {
           "must be > contact_min_time_s");
   require(loss_timeout_s > 0, "loss_timeout_s", "must be > 0");
   require(recovery_loss_timeout_s > 0, "recovery_loss_timeout_s", "must be > 0");
+  require(descent_stale_s > 0, "descent_stale_s", "must be > 0");
+  require(approach_goal_max_rate_mps > 0, "approach_goal_max_rate_mps", "must be > 0");
+  require(track_max_tilt_deg > 0 && track_max_tilt_deg < 80, "track_max_tilt_deg",
+          "must be in (0, 80)");
   require(reacquire_frames >= 1, "reacquire_frames", "must be >= 1");
   require(go_around_low_height_m > 0, "go_around_low_height_m", "must be > 0");
   require(go_around_error_m > touchdown_error_m, "go_around_error_m",

@@ -158,6 +158,27 @@ Eigen::Vector3d PlatformTracker::position_now(double t_s) const {
   return p + v * std::max(0.0, t_s - f.t_s);
 }
 
+Eigen::Vector3d PlatformTracker::relative_now(double t_s, const NavState& nav_now) const {
+  const PlatformFix& last = latest();
+  // Line fit r = a + b (t - t_last) of the recent relative vectors; a is the smoothed r.
+  double s0 = 0, s1 = 0, s2 = 0;
+  Eigen::Vector3d sr = Eigen::Vector3d::Zero(), str = Eigen::Vector3d::Zero();
+  for (const PlatformFix& f : fixes_) {
+    if (f.t_s < last.t_s - p_.relative_window_s) continue;
+    const double d = f.t_s - last.t_s;
+    s0 += 1;
+    s1 += d;
+    s2 += d * d;
+    sr += f.p_BP_W_m;
+    str += d * f.p_BP_W_m;
+  }
+  const double det = s0 * s2 - s1 * s1;
+  const Eigen::Vector3d r_last =
+      (s0 >= 3 && det > 1e-12) ? Eigen::Vector3d((s2 * sr - s1 * str) / det) : last.p_BP_W_m;
+  const Eigen::Vector3d vehicle_moved = nav_now.p_W_m - nav_at(last.t_s).p_W_m;
+  return r_last + velocity() * std::max(0.0, t_s - last.t_s) - vehicle_moved;
+}
+
 Eigen::Vector3d PlatformTracker::predict(double t_s) const {
   const PlatformFix& last = latest();
   const double horizon = std::max(0.0, t_s - last.t_s);

@@ -55,6 +55,10 @@ class CascadeController {
   // Uses nav.q_WB and nav.omega_B_radps; if nav is invalid, levels with the gyro.
   MixerOutput update_inner(double t_s, const NavState& nav, const ImuSample& imu);
 
+  // Tilt limit of the thrust vector (deg, in (0, 80)), at most CascadeParams::max_tilt_deg;
+  // the landing controller lowers it while the target must stay in the camera's view.
+  void set_tilt_limit_deg(double deg);
+
   const CascadeDiagnostics& diagnostics() const { return diag_; }
   const HexMixer& mixer() const { return mixer_; }
   const VehicleParams& vehicle() const { return v_; }
@@ -71,6 +75,7 @@ class CascadeController {
   Eigen::Vector3d rate_int_{Eigen::Vector3d::Zero()};  // rate integral (rad/s^2)
   Eigen::Vector3d force_sp_W_{Eigen::Vector3d::Zero()};
   double yaw_sp_{0.0};
+  double tilt_limit_deg_{30.0};
   double last_outer_t_{-1e300};
   double last_inner_t_{-1e300};
   CascadeDiagnostics diag_;

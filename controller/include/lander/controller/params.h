@@ -100,7 +100,8 @@ struct TrackerParams {
   double fit_window_s{3.0};             ///< fit window (s): ~ the paper's 80 frames at 30 Hz
   double max_poly_extrapolation_s{0.5}; ///< beyond this horizon the prediction continues
                                         ///< linearly (a quartic diverges far out) (s)
-  double velocity_window_s{1.0};        ///< window of the linear velocity fit (s)
+  double velocity_window_s{1.0};        ///< window of the local velocity fit (s)
+  double relative_window_s{0.25};       ///< window of the line fit of the relative vector (s)
   double platform_max_speed_mps{2.0};   ///< plausibility bound of the platform speed (m/s)
   double history_s{10.0};               ///< how long observations are kept (s)
   double nav_history_s{1.0};            ///< nav-state buffer for latency (s)
@@ -113,6 +114,7 @@ void visit_fields(V& v, TrackerParams& p) {
   v("fit_window_s", p.fit_window_s);
   v("max_poly_extrapolation_s", p.max_poly_extrapolation_s);
   v("velocity_window_s", p.velocity_window_s);
+  v("relative_window_s", p.relative_window_s);
   v("platform_max_speed_mps", p.platform_max_speed_mps);
   v("history_s", p.history_s);
   v("nav_history_s", p.nav_history_s);
@@ -160,7 +162,13 @@ struct LandingParams {
   double contact_timeout_s{2.0};          ///< no contact after the cut -> go-around (s)
   // loss, search, go-around (not in the paper)
   double loss_timeout_s{1.0};             ///< no detection this long = target lost (s)
-  double recovery_loss_timeout_s{0.5};    ///< the same in recovery (s)
+  double recovery_loss_timeout_s{1.5};    ///< the same in recovery (s); the descent pauses
+                                          ///< as soon as vision is older than descent_stale_s
+  double descent_stale_s{0.15};           ///< descend only with a detection this fresh (s)
+  double approach_goal_max_rate_mps{1.5}; ///< a replan moves P_d by at most this per second,
+                                          ///< so prediction noise does not jerk the setpoint
+  double track_max_tilt_deg{20.0};        ///< tilt limit while the target must stay in view
+                                          ///< (observe, approach, recovery) (deg)
   int reacquire_frames{3};                ///< consecutive keyframes to re-acquire
   double go_around_low_height_m{3.0};     ///< lost below this height above the top -> go-around
   double go_around_error_m{0.6};          ///< horizontal error in recovery below near_height_m
@@ -205,6 +213,9 @@ void visit_fields(V& v, LandingParams& p) {
   v("contact_timeout_s", p.contact_timeout_s);
   v("loss_timeout_s", p.loss_timeout_s);
   v("recovery_loss_timeout_s", p.recovery_loss_timeout_s);
+  v("descent_stale_s", p.descent_stale_s);
+  v("approach_goal_max_rate_mps", p.approach_goal_max_rate_mps);
+  v("track_max_tilt_deg", p.track_max_tilt_deg);
   v("reacquire_frames", p.reacquire_frames);
   v("go_around_low_height_m", p.go_around_low_height_m);
   v("go_around_error_m", p.go_around_error_m);

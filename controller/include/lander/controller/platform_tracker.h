@@ -57,6 +57,12 @@ class PlatformTracker {
   // Order is TrackerParams::poly_order, lowered when there are too few fixes.
   const PolynomialFit3& fit() const;
 
+  // Platform minus vehicle now, in W axes (m): what the visual servo closes. The relative
+  // vectors of the last relative_window_s (line fit) at the last fix, moved on by velocity()
+  // and back by the vehicle's own displacement since then (short-term navigation). Unlike
+  // position_now() - nav.p, a slowly wandering navigation position (GPS) cancels out.
+  Eigen::Vector3d relative_now(double t_s, const NavState& nav_now) const;
+
   // Predicted platform position at t_s (eq. 28 without epsilon): the polynomial up to
   // max_poly_extrapolation_s past the last fix, continued linearly beyond, and its distance
   // from the last fix bounded by platform_max_speed_mps * horizon.
