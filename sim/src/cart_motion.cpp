@@ -22,7 +22,7 @@ namespace {
 // Distance travelled s(t) and its derivatives for the speed profile.
 void speed_profile(const CartMotionParams& p, double t, double& s, double& sd, double& sdd) {
   s = sd = sdd = 0.0;
-  if (p.path == "static" || t <= p.start_delay_s) return;
+  if (p.path == "static" || t < p.start_delay_s) return;  // constant: moving from t = 0
   t -= p.start_delay_s;
   const double v = p.speed_mps;
   if (p.speed_profile == "constant") {
