@@ -83,7 +83,7 @@ TEST(CartMotion, ArcKeepsItsRadiusAndDerivativesAreConsistent) {
   p.turn_radius_m = 15.0;
   p.start_m = {2.0, -1.0};
   const Eigen::Vector2d centre = p.start_m + Eigen::Vector2d(0, 15.0);  // left turn, heading 0
-  for (double t : {0.0, 3.0, 10.0, 40.0}) {
+  for (double t : {0.5, 3.0, 10.0, 40.0}) {  // t > 0: the path starts at t = 0
     const CartReference r = cart_reference(p, t);
     EXPECT_NEAR((r.q.head<2>() - centre).norm(), 15.0, 1e-9) << t;
     EXPECT_NEAR(r.qd.head<2>().norm(), 1.0, 1e-12) << t;
