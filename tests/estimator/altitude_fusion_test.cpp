@@ -6,6 +6,8 @@
 
 #include <cmath>
 
+#include <Eigen/Eigenvalues>
+
 #include "lander/estimator/altitude_vision.h"
 
 namespace lander {
@@ -153,6 +155,30 @@ TEST(AltitudeFusion, ConvergesBaroBiasFromExactMeasurements) {
   // Exact data: the bias is found to well under the baro noise the filter assumes.
   EXPECT_NEAR(f.estimate().baro_bias_m, bias, 0.01);
   EXPECT_NEAR(f.estimate().z_W_m, 10.0, 0.01);
+}
+
+TEST(AltitudeFusion, StartsInTheAirFromBaroWithUnknownBias) {
+  AltitudeFusionParams p;
+  AltitudeFusion f(p);
+  const double z_true = 10.0, bias = 1.5;
+  f.reset_from_baro(baro_at(0.0, z_true + bias));
+  EXPECT_NEAR(f.estimate().z_W_m, z_true + bias, 1e-6);
+  // Var(z) is large, but z + eps_b is known: the covariance must be positive semi-definite.
+  const Eigen::SelfAdjointEigenSolver<AltitudeFusion::Mat> es(f.P());
+  EXPECT_GT(es.eigenvalues().minCoeff(), -1e-12);
+  EXPECT_GT(f.estimate().var_m2, 1.0);
+  // Vision (target plane known to 2 cm) sorts out the split within a second; nothing is
+  // rejected as an outlier on the way (the 1.5 m disagreement is within the prior).
+  for (int k = 1; k <= 30; ++k) {
+    const double t = k / 30.0;
+    f.predict(t, 0.0);
+    EXPECT_NE(f.update_vision(t, z_true - p.platform_height_m, 0.05), O::kRejectedOutlier);
+    if (k % 2 == 0) f.update_baro(baro_at(t, z_true + bias));
+  }
+  // Vision at 5 cm / 30 Hz for 1 s plus the 2 cm plane prior: a few cm.
+  constexpr double kSettled_m = 0.05;
+  EXPECT_NEAR(f.estimate().z_W_m, z_true, kSettled_m);
+  EXPECT_NEAR(f.estimate().baro_bias_m, bias, kSettled_m);
 }
 
 TEST(AltitudeFusion, GpsOutlierIsGatedEq27) {

@@ -66,11 +66,14 @@ AltitudeFusion::AltitudeFusion(const AltitudeFusionParams& p) : p_(p) {
   reset(0.0, 0.0, 0.0);
 }
 
-void AltitudeFusion::reset(double t_s, double z_W_m, double surface_W_m, double vz_W_mps) {
-  // Tolerances of a start on the ground: height of B known to a few cm, at rest.
-  constexpr double kInitialZStd_m = 0.05;
-  constexpr double kInitialVzStd_mps = 0.1;
-  constexpr double kInitialSurfaceStd_m = 0.05;
+void AltitudeFusion::reset(double t_s, double z_W_m, double surface_W_m, double vz_W_mps,
+                           double z_std_m, double surface_std_m) {
+  if (!(z_std_m > 0) || !(surface_std_m > 0)) {
+    throw std::invalid_argument("AltitudeFusion::reset: stds must be > 0");
+  }
+  const double kInitialZStd_m = z_std_m;
+  constexpr double kInitialVzStd_mps = 0.1;  // at rest or hovering, to 0.1 m/s
+  const double kInitialSurfaceStd_m = surface_std_m;
   t_s_ = t_s;
   x_.setZero();
   x_[kZ] = z_W_m;
@@ -90,6 +93,17 @@ void AltitudeFusion::reset(double t_s, double z_W_m, double surface_W_m, double 
   us_suspect_ = false;
   us_run_ = 0;
   rejects_.fill(0);
+}
+
+void AltitudeFusion::reset_from_baro(const BaroSample& b, double surface_W_m,
+                                     double surface_std_m) {
+  if (!(b.pressure_pa > 0)) throw std::invalid_argument("reset_from_baro: bad pressure");
+  const double h_q = isa_altitude_m(b.pressure_pa) - p_.baro_origin_msl_m;  // eq. 8
+  const double sb = p_.initial_baro_bias_std_m;
+  reset(b.t_s, h_q, surface_W_m, 0.0, sb, surface_std_m);
+  // z + eps_b = h_q is known (to the baro noise); z and eps_b individually are not.
+  P_(kZ, kBaroBias) = P_(kBaroBias, kZ) = -sb * sb + p_.baro_std_m * p_.baro_std_m;
+  low_set_ = (h_q - surface_W_m) < p_.switch_height_m;
 }
 
 void AltitudeFusion::set_attitude(const Eigen::Quaterniond& q_WB) {

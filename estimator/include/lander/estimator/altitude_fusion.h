@@ -186,8 +186,15 @@ class AltitudeFusion {
 
   explicit AltitudeFusion(const AltitudeFusionParams& p);  // validates p
   // Starts the filter at t_s with the vehicle at height z_W_m over a surface at surface_W_m
-  // (e.g. on the ground before take-off: z = height of B's origin above its feet, s = 0).
-  void reset(double t_s, double z_W_m, double surface_W_m = 0.0, double vz_W_mps = 0.0);
+  // (e.g. on the ground before take-off: z = height of B's origin above its feet, s = 0),
+  // known to z_std_m and surface_std_m.
+  void reset(double t_s, double z_W_m, double surface_W_m = 0.0, double vz_W_mps = 0.0,
+             double z_std_m = 0.05, double surface_std_m = 0.05);
+  // Starts the filter in the air from a barometer sample: z = baro altitude in W, bias 0,
+  // with z + eps_b known exactly but the split unknown (Var z = Var eps_b =
+  // initial_baro_bias_std_m^2, fully anti-correlated); the surface below at surface_W_m
+  // known to surface_std_m. Vision and GPS then sort out z and the bias.
+  void reset_from_baro(const BaroSample& b, double surface_W_m = 0.0, double surface_std_m = 2.0);
   // Propagates to t_s (>= current time) with the vertical acceleration in W (m/s^2, gravity
   // removed) held over the interval. Calls with t_s <= current time do nothing.
   void predict(double t_s, double az_W_mps2);
