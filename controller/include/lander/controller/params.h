@@ -162,9 +162,9 @@ struct LandingParams {
   double contact_timeout_s{2.0};          ///< no contact after the cut -> go-around (s)
   // loss, search, go-around (not in the paper)
   double loss_timeout_s{1.0};             ///< no detection this long = target lost (s)
-  double recovery_loss_timeout_s{1.5};    ///< the same in recovery (s); the descent pauses
+  double recovery_loss_timeout_s{2.0};    ///< the same in recovery (s); the descent pauses
                                           ///< as soon as vision is older than descent_stale_s
-  double descent_stale_s{0.15};           ///< descend only with a detection this fresh (s)
+  double descent_stale_s{0.4};            ///< descend only with a detection this fresh (s)
   double approach_goal_max_rate_mps{1.5}; ///< a replan moves P_d by at most this per second,
                                           ///< so prediction noise does not jerk the setpoint
   double track_max_tilt_deg{20.0};        ///< tilt limit while the target must stay in view
