@@ -33,6 +33,17 @@ const char* to_string(VisionStatus s) {
   return "unknown";
 }
 
+const char* to_string(PoseSource s) {
+  switch (s) {
+    case PoseSource::None: return "none";
+    case PoseSource::Rings: return "rings";
+    case PoseSource::CentreRing: return "centre_ring";
+    case PoseSource::Code: return "code";
+    case PoseSource::Combined: return "combined";
+  }
+  return "unknown";
+}
+
 const char* to_string(KeyframeStatus s) {
   switch (s) {
     case KeyframeStatus::NotDetected: return "not_detected";
@@ -117,8 +128,11 @@ Eigen::Vector2d distort(const CameraModel& cam, const Eigen::Vector2d& u) {
 
 // Everything from contours to the refined pose on one search region. Fills `d` except the
 // keyframe fields and the timing; returns d.detected.
+// `cands_out` receives the ellipse candidates (index-aligned with d.ellipses) for the
+// fewer-ring and combined poses.
 bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam,
-                const TargetGeometry& target, const VisionParams& p, RingDetection& d) {
+                const TargetGeometry& target, const VisionParams& p, RingDetection& d,
+                std::vector<EllipseCandidate>& cands) {
   d = RingDetection{};
   d.roi = roi;
   auto fail = [&](VisionStatus s, std::string why) {
@@ -128,8 +142,7 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
     return false;
   };
   cv::Mat blurred;
-  std::vector<EllipseCandidate> cands =
-      vision_internal::find_ellipses(grey, roi, cam, p, &blurred);
+  cands = vision_internal::find_ellipses(grey, roi, cam, p, &blurred);
   auto add_ellipse = [&](const EllipseCandidate& c) {
     DetectedEllipse e;
     e.C = c.C;
@@ -385,10 +398,188 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
   }
   d.detected = true;
   d.status = VisionStatus::Detected;
+  d.source = PoseSource::Rings;
   std::ostringstream os;
   os << chosen.size() << " ring sets identified";
   d.reason = os.str();
   return true;
+}
+
+
+// ---- fewer-ring poses and ring + code combination ----
+
+// Closed-form pose of the central ring set (P origin) from its concentric pair: the projected
+// centre c (harmonic / Kim-Gurdjos-Kweon), the vanishing line as the polar of c w.r.t. the
+// outer conic (pole-polar: the polar of a circle's centre is the line at infinity of its
+// plane), the plane normal n ~ K^T l, the depth from the known radii (each edge point's ray
+// meets the plane at distance R from the centre), and the in-plane axis r1 from `x_dir`
+// (a camera-frame direction to be P's +x after projection onto the plane).
+std::optional<Eigen::Isometry3d> centre_pair_pose(const Eigen::Matrix3d& K, const Conic& C_outer,
+                                                  const Eigen::Vector2d& c_px,
+                                                  const std::vector<vision_internal::ConicObservation>& circles) {
+  const Eigen::Matrix3d Ki = K.inverse();
+  const Eigen::Vector3d ch(c_px.x(), c_px.y(), 1.0);
+  const Eigen::Vector3d l = C_outer * ch;
+  Eigen::Vector3d n = (K.transpose() * l);
+  if (!(n.norm() > 0)) return std::nullopt;
+  n.normalize();
+  const Eigen::Vector3d rc = Ki * ch;
+  if (n.dot(rc) > 0) n = -n;  // P's z axis points back towards the camera
+  std::vector<double> lambdas;
+  for (const auto& o : circles) {
+    for (const auto& x : *o.points) {
+      const Eigen::Vector3d rx = Ki * Eigen::Vector3d(x.x(), x.y(), 1.0);
+      const double den = n.dot(rx);
+      if (std::abs(den) < 1e-12) continue;
+      const double len = ((n.dot(rc) / den) * rx - rc).norm();
+      if (len > 0) lambdas.push_back(o.r_m / len);
+    }
+  }
+  if (lambdas.size() < 6) return std::nullopt;
+  std::nth_element(lambdas.begin(), lambdas.begin() + lambdas.size() / 2, lambdas.end());
+  Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+  X.translation() = lambdas[lambdas.size() / 2] * rc;
+  X.linear().col(2) = n;
+  return X;  // r1, r2 still to set (yaw)
+}
+
+// Sets the yaw of X (whose col(2) is the plane normal): P's +x along the projection of
+// `x_dir` onto the plane.
+void set_yaw(Eigen::Isometry3d& X, const Eigen::Vector3d& x_dir) {
+  const Eigen::Vector3d n = X.linear().col(2);
+  const Eigen::Vector3d r1 = (x_dir - x_dir.dot(n) * n).normalized();
+  X.linear().col(0) = r1;
+  X.linear().col(1) = n.cross(r1);
+}
+
+// True if two poses agree within the combination gates.
+bool poses_agree(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const VisionParams& p) {
+  const double ang = Eigen::AngleAxisd(a.linear().transpose() * b.linear()).angle();
+  const double dist = (a.translation() - b.translation()).norm();
+  return ang <= p.combine_max_angle_rad &&
+         dist <= p.combine_max_offset_ratio * std::max(a.translation().norm(), 0.05);
+}
+
+// Fewer-ring / combined pose on top of the ring pass. `d` is the ring result (detected or
+// not), `cands` its ellipse candidates, `code` the code result (may be undetected),
+// `tracked` the last tracked pose (nullptr if none). Updates d when a pose results.
+void combine_sources(RingDetection& d, const std::vector<EllipseCandidate>& cands,
+                     const Eigen::Matrix3d& K, const TargetGeometry& target,
+                     const VisionParams& p, const Eigen::Isometry3d* tracked) {
+  const bool rings_ok = d.detected;
+  // Conic observations of every identified set.
+  std::vector<vision_internal::ConicObservation> obs;
+  const IdentifiedCentre* centre0 = nullptr;
+  const IdentifiedCentre* other = nullptr;
+  for (const auto& c : d.centres) {
+    if (c.outer_index < 0 || c.inner_index < 0 || c.outer_index >= static_cast<int>(cands.size()) ||
+        c.inner_index >= static_cast<int>(cands.size())) {
+      continue;
+    }
+    const RingSet& ring = target.ring(c.ring_id);
+    obs.push_back({ring.centre_P_m, ring.outer_radius_m, &cands[c.outer_index].points});
+    obs.push_back({ring.centre_P_m, ring.inner_radius_m, &cands[c.inner_index].points});
+    if (ring.centre_P_m.norm() < 1e-9) {
+      centre0 = &c;
+    } else if (other == nullptr) {
+      other = &c;
+    }
+  }
+  std::vector<vision_internal::PointObservation> pts;
+  if (d.code.detected) {
+    for (std::size_t i = 0; i < d.code.corners_px.size(); ++i) {
+      pts.push_back({d.code.corners_P_m[i], d.code.corners_px[i]});
+    }
+  }
+  auto accept = [&](const vision_internal::RefineResult& ref, PoseSource src,
+                    const std::string& why) {
+    d.X_CP = ref.X_CP;
+    d.cov = ref.cov;
+    d.edge_rms_px = ref.rms_px;
+    d.refine_iterations = ref.iterations;
+    double sum = 0.0;
+    for (const auto& c : d.centres) {
+      sum += (project(K, d.X_CP, target.ring(c.ring_id).centre_P_m) - c.centre_px).squaredNorm();
+    }
+    d.reproj_err_sum_px2 = sum;
+    d.reproj_err_px = d.centres.empty() ? d.code.reproj_rms_px : std::sqrt(sum / d.centres.size());
+    d.detected = true;
+    d.status = VisionStatus::Detected;
+    d.source = src;
+    d.reason = why;
+  };
+  if (rings_ok) {
+    if (!d.code.detected) return;
+    if (!poses_agree(d.X_CP, d.code.X_CP, p)) {
+      d.reason += "; code pose disagrees with the rings, not used";
+      return;
+    }
+    const auto ref = vision_internal::refine_pose_conics(K, d.X_CP, obs, p.refine_points_per_ellipse,
+                                                         p.refine_max_iter, &pts);
+    if (ref.ok && ref.rms_px <= p.max_edge_residual_px) {
+      accept(ref, PoseSource::Combined, d.reason + " + " + d.code.reason);
+    }
+    return;
+  }
+  // Fewer than min_rings sets: the central pair gives normal, centre and depth.
+  if (p.centre_ring_pose && centre0 != nullptr && d.status == VisionStatus::TooFewRings) {
+    std::vector<vision_internal::ConicObservation> c0obs;
+    for (const auto& o : obs) {
+      if (o.c_P_m.norm() < 1e-9) c0obs.push_back(o);
+    }
+    auto X0 = centre_pair_pose(K, cands[centre0->outer_index].C, centre0->centre_px, c0obs);
+    if (X0) {
+      std::string yaw_from;
+      std::optional<vision_internal::YawPrior> prior;
+      if (other != nullptr) {
+        // The other set's centre on the plane fixes the in-plane rotation.
+        const Eigen::Matrix3d Ki = K.inverse();
+        const Eigen::Vector3d n = X0->linear().col(2), t = X0->translation();
+        const Eigen::Vector3d rj = Ki * Eigen::Vector3d(other->centre_px.x(), other->centre_px.y(), 1);
+        const Eigen::Vector3d Xj = (n.dot(t) / n.dot(rj)) * rj;
+        const Eigen::Vector3d v = (Xj - t).normalized();
+        const Eigen::Vector2d q = target.ring(other->ring_id).centre_P_m.normalized();
+        // v = q.x r1 + q.y r2 with r2 = n x r1  =>  r1 = q.x v - q.y (n x v).
+        set_yaw(*X0, q.x() * v - q.y() * n.cross(v));
+        yaw_from = "ring set " + std::to_string(other->ring_id);
+      } else if (d.code.detected) {
+        set_yaw(*X0, d.code.X_CP.linear().col(0));
+        yaw_from = "code";
+      } else if (tracked != nullptr) {
+        set_yaw(*X0, tracked->linear().col(0));
+        prior = vision_internal::YawPrior{X0->linear(), p.tracked_yaw_sigma_rad};
+        yaw_from = "tracked pose";
+      }
+      if (!yaw_from.empty()) {
+        const auto ref = vision_internal::refine_pose_conics(
+            K, *X0, obs, p.refine_points_per_ellipse, p.refine_max_iter, &pts,
+            prior ? &*prior : nullptr);
+        if (ref.ok && ref.rms_px <= p.max_edge_residual_px &&
+            (!d.code.detected || poses_agree(ref.X_CP, d.code.X_CP, p))) {
+          std::ostringstream os;
+          os << d.centres.size() << " ring sets identified (centre pair, yaw from " << yaw_from
+             << ")";
+          if (d.code.detected) os << " + " << d.code.reason;
+          accept(ref, d.code.detected ? PoseSource::Combined : PoseSource::CentreRing, os.str());
+          return;
+        }
+      } else {
+        d.reason += "; central pair seen but no yaw (no other set, code or track)";
+      }
+    }
+  }
+  if (d.code.detected) {
+    d.X_CP = d.code.X_CP;
+    d.cov = d.code.cov;
+    d.edge_rms_px = 0.0;
+    d.reproj_err_px = d.code.reproj_rms_px;
+    d.reproj_err_sum_px2 = d.code.reproj_rms_px * d.code.reproj_rms_px * d.code.corners_px.size();
+    d.refine_iterations = 0;
+    d.detected = true;
+    d.status = VisionStatus::Detected;
+    d.source = PoseSource::Code;
+    d.reason = d.code.reason;
+  }
 }
 
 }  // namespace
@@ -436,6 +627,7 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image) {
   cv::Mat grey;
   const cv::Rect full(0, 0, image.cols, image.rows);
   bool done = false;
+  std::vector<EllipseCandidate> cands;
   if (params_.tracking && have_prediction_) {
     // Predicted region: the outer circles projected with the last pose, plus a margin.
     std::vector<cv::Point3d> pts;
@@ -471,18 +663,34 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image) {
                            full;
       if (roi.width >= 16 && roi.height >= 16 && roi.area() < 0.7 * full.area()) {
         grey_region(image, roi, grey);
-        done = run_region(grey, roi, camera_, target_, params_, d);
+        done = run_region(grey, roi, camera_, target_, params_, d, cands);
         d.used_roi = done;
       }
     }
   }
   if (!done && full.width >= 16 && full.height >= 16) {
     grey_region(image, full, grey);
-    run_region(grey, full, camera_, target_, params_, d);
+    run_region(grey, full, camera_, target_, params_, d, cands);
   } else if (!done) {
     d.status = VisionStatus::NoEllipses;
     d.reason = "image too small to hold the target";
   }
+  // Code map (seed 001): searched unless the pose (this frame's rings, else the track) shows
+  // its cells smaller than code_min_cell_px.
+  if (params_.code_enabled && target_.code.cells > 0 && full.width >= 16 && full.height >= 16) {
+    const Eigen::Isometry3d* ref = d.detected ? &d.X_CP : (have_prediction_ ? &X_CP_pred_ : nullptr);
+    bool search = true;
+    if (ref != nullptr) {
+      const double z = ref->translation().z();
+      search = z > 0 && target_.code.cell_m * camera_.fx_px / z >= params_.code_min_cell_px;
+    }
+    if (search) {
+      grey_region(image, full, grey);
+      d.code_searched = true;
+      d.code = detect_code_pattern(grey, camera_, target_, params_);
+    }
+  }
+  combine_sources(d, cands, camera_.K(), target_, params_, have_prediction_ ? &X_CP_pred_ : nullptr);
 
   // Tracking state: constant-pose prediction, dropped after a few misses.
   if (d.detected) {
@@ -568,6 +776,14 @@ std::string to_json(const RingDetection& d) {
   const Eigen::Quaterniond q(d.X_CP.linear());
   os << "{\"detected\": " << (d.detected ? "true" : "false") << ", \"status\": \""
      << to_string(d.status) << "\", \"reason\": \"" << esc(d.reason) << "\"";
+  os << ", \"source\": \"" << to_string(d.source) << "\"";
+  os << ", \"code\": {\"searched\": " << (d.code_searched ? "true" : "false")
+     << ", \"detected\": " << (d.code.detected ? "true" : "false") << ", \"reason\": \""
+     << esc(d.code.reason) << "\", \"cells_read\": " << d.code.cells_read
+     << ", \"corners\": " << d.code.corners_px.size() << ", \"rotation\": "
+     << d.code.placement.rotation << ", \"reproj_rms_px\": ";
+  num(d.code.reproj_rms_px);
+  os << "}";
   os << ", \"p_CP_m\": [";
   num(d.X_CP.translation().x());
   os << ", ";

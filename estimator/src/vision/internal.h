@@ -48,8 +48,23 @@ struct RefineResult {
   double rms_px{0.0};
   int iterations{0};
 };
+// Point correspondences (code-map corners) refined together with the conics: residual is the
+// reprojection error (px) of the P point c_P_m against the undistorted pixel px.
+struct PointObservation {
+  Eigen::Vector2d c_P_m;
+  Eigen::Vector2d px;
+};
+// Prior on the rotation about the platform normal (yaw) when nothing else fixes it (a lone
+// concentric pair): residual = (yaw offset from R_prior, rad) / sigma_rad, in units of one
+// pixel of the other residuals.
+struct YawPrior {
+  Eigen::Matrix3d R_CP;
+  double sigma_rad{0.05};
+};
 RefineResult refine_pose_conics(const Eigen::Matrix3d& K, const Eigen::Isometry3d& X_CP0,
                                 const std::vector<ConicObservation>& obs, int points_per_ellipse,
-                                int max_iter);
+                                int max_iter,
+                                const std::vector<PointObservation>* points = nullptr,
+                                const YawPrior* yaw_prior = nullptr);
 
 }  // namespace lander::vision_internal

@@ -32,6 +32,19 @@ void VisionParams::validate() const {
   require(keyframe_reset_after >= 0, "keyframe_reset_after", "must be >= 0");
   require(roi_margin >= 0, "roi_margin", "must be >= 0");
   require(max_frames_without_detection >= 0, "max_frames_without_detection", "must be >= 0");
+  require(code_min_cell_px >= 4, "code_min_cell_px", "must be >= 4");
+  require(code_threshold_block_px >= 3 && code_threshold_block_px % 2 == 1,
+          "code_threshold_block_px", "must be odd and >= 3");
+  require(code_threshold_offset >= 0, "code_threshold_offset", "must be >= 0");
+  require(code_min_contrast > 0, "code_min_contrast", "must be > 0");
+  require(code_max_mismatch_fraction >= 0 && code_max_mismatch_fraction < 0.2,
+          "code_max_mismatch_fraction", "must be in [0, 0.2)");
+  require(code_min_score_margin >= 1, "code_min_score_margin", "must be >= 1");
+  require(code_min_corners >= 4, "code_min_corners", "must be >= 4 (planar PnP)");
+  require(code_max_reproj_px > 0, "code_max_reproj_px", "must be > 0");
+  require(tracked_yaw_sigma_rad > 0, "tracked_yaw_sigma_rad", "must be > 0");
+  require(combine_max_angle_rad > 0, "combine_max_angle_rad", "must be > 0");
+  require(combine_max_offset_ratio > 0, "combine_max_offset_ratio", "must be > 0");
 }
 
 }  // namespace lander

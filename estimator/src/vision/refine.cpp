@@ -61,11 +61,53 @@ struct ConicEdgeCost {
   std::vector<Eigen::Vector2d> pts_;
 };
 
+struct PointCost {
+  PointCost(const Eigen::Matrix3d& K, std::vector<PointObservation> pts)
+      : K_(K), pts_(std::move(pts)) {}
+  template <class T>
+  bool operator()(const T* const x, T* residuals) const {
+    for (std::size_t i = 0; i < pts_.size(); ++i) {
+      const T P[3] = {T(pts_[i].c_P_m.x()), T(pts_[i].c_P_m.y()), T(0)};
+      T q[3];
+      ceres::AngleAxisRotatePoint(x, P, q);
+      q[0] += x[3];
+      q[1] += x[4];
+      q[2] += x[5];
+      residuals[2 * i] = T(K_(0, 0)) * q[0] / q[2] + T(K_(0, 2)) - T(pts_[i].px.x());
+      residuals[2 * i + 1] = T(K_(1, 1)) * q[1] / q[2] + T(K_(1, 2)) - T(pts_[i].px.y());
+    }
+    return true;
+  }
+  Eigen::Matrix3d K_;
+  std::vector<PointObservation> pts_;
+};
+
+// Yaw offset: the z component (in P) of the small rotation R_prior^T R.
+struct YawPriorCost {
+  explicit YawPriorCost(const YawPrior& p) : R0_(p.R_CP), w_(1.0 / p.sigma_rad) {}
+  template <class T>
+  bool operator()(const T* const x, T* residual) const {
+    T R[9];
+    ceres::AngleAxisToRotationMatrix(x, R);  // column-major
+    // Rrel = R0^T R; Rrel(1,0) - Rrel(0,1) = col0(R0)... via dot products of columns.
+    T r10 = T(0), r01 = T(0);
+    for (int k = 0; k < 3; ++k) {
+      r10 += T(R0_(k, 1)) * R[k];      // R0 col 1 . R col 0
+      r01 += T(R0_(k, 0)) * R[3 + k];  // R0 col 0 . R col 1
+    }
+    residual[0] = T(w_) * T(0.5) * (r10 - r01);
+    return true;
+  }
+  Eigen::Matrix3d R0_;
+  double w_;
+};
+
 }  // namespace
 
 RefineResult refine_pose_conics(const Eigen::Matrix3d& K, const Eigen::Isometry3d& X_CP0,
                                 const std::vector<ConicObservation>& obs, int points_per_ellipse,
-                                int max_iter) {
+                                int max_iter, const std::vector<PointObservation>* points,
+                                const YawPrior* yaw_prior) {
   RefineResult res;
   double x[6];
   const Eigen::AngleAxisd aa(X_CP0.linear());
@@ -89,6 +131,19 @@ RefineResult refine_pose_conics(const Eigen::Matrix3d& K, const Eigen::Isometry3
     auto* cost = new ceres::AutoDiffCostFunction<ConicEdgeCost, ceres::DYNAMIC, 6>(
         new ConicEdgeCost(K, o.c_P_m, o.r_m, std::move(pts)), want);
     problem.AddResidualBlock(cost, nullptr, x);
+  }
+  if (points != nullptr && !points->empty()) {
+    const int np = static_cast<int>(points->size());
+    auto* cost = new ceres::AutoDiffCostFunction<PointCost, ceres::DYNAMIC, 6>(
+        new PointCost(K, *points), 2 * np);
+    problem.AddResidualBlock(cost, nullptr, x);
+    m += 2 * np;
+  }
+  if (yaw_prior != nullptr) {
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<YawPriorCost, 1, 6>(new YawPriorCost(*yaw_prior)), nullptr,
+        x);
+    m += 1;
   }
   if (m < 12) return res;
   ceres::Solver::Options opts;

@@ -23,6 +23,7 @@
 #include "lander/estimator/state.h"
 #include "lander/estimator/target.h"
 #include "lander/estimator/types.h"
+#include "lander/estimator/vision_code.h"
 #include "lander/estimator/vision_conic.h"
 #include "lander/estimator/vision_params.h"
 
@@ -52,6 +53,17 @@ enum class KeyframeStatus {
 };
 const char* to_string(KeyframeStatus s);
 
+// Which observations gave the pose of a detection.
+enum class PoseSource {
+  None,        ///< no pose
+  Rings,       ///< >= min_rings identified ring sets (IPPE + conic refinement, seed 000)
+  CentreRing,  ///< the central set's concentric pair (closed-form normal and centre) with
+               ///< the yaw from another set or the tracked pose, refined on the conics
+  Code,        ///< the code map alone (seed 001, vision_code.h)
+  Combined     ///< ring conics and code corners refined together
+};
+const char* to_string(PoseSource s);
+
 // One fitted ellipse (for overlays and diagnostics).
 struct DetectedEllipse {
   Conic C;                 ///< conic in undistorted pixels (interior negative)
@@ -75,6 +87,13 @@ struct RingDetection {
   bool detected{false};
   VisionStatus status{VisionStatus::EmptyImage};
   std::string reason;  ///< human-readable why (or a summary when detected)
+  PoseSource source{PoseSource::None};  ///< which observations gave X_CP
+
+  // Code-map result (seed 001) when the code was searched: code.detected, its own pose,
+  // cells and corners; code.reason says why not. code_searched is false when the ring pose
+  // showed the code cells too small to read.
+  bool code_searched{false};
+  CodeDetection code;
 
   Eigen::Isometry3d X_CP{Eigen::Isometry3d::Identity()};  ///< platform pose in camera frame
   /// Covariance of [angle-axis of R_CP (rad); p_CP (m)] from the conic-cost Jacobian,
@@ -82,7 +101,8 @@ struct RingDetection {
   Eigen::Matrix<double, 6, 6> cov{Eigen::Matrix<double, 6, 6>::Identity()};
   std::vector<IdentifiedCentre> centres;
   std::vector<DetectedEllipse> ellipses;
-  double reproj_err_px{0.0};        ///< sqrt(eq. 30 / N): RMS centre reprojection error (px)
+  double reproj_err_px{0.0};        ///< sqrt(eq. 30 / N): RMS centre reprojection error (px);
+                                    ///< for a code-only pose the RMS corner error (px)
   double reproj_err_sum_px2{0.0};   ///< eq. (30) as written: sum of squared errors (px^2)
   double edge_rms_px{0.0};          ///< RMS conic-cost residual after refinement (px)
   int refine_iterations{0};

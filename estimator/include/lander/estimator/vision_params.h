@@ -59,6 +59,27 @@ struct VisionParams {
   double roi_margin{0.35};           ///< ROI grows by this fraction of its size on each side
   int max_frames_without_detection{3};  ///< drop the prediction after this many misses
 
+  // ---- code pattern (seed 001; vision_code.h) ----
+  bool code_enabled{true};           ///< localise on the code map when its cells are in view
+  double code_min_cell_px{8.0};      ///< smallest code cell side read (px): below ~8 px the
+                                     ///< thresholded cell corners round off by a third
+  int code_threshold_block_px{101};  ///< adaptive threshold window (px), odd: about one cell
+                                     ///< at touchdown (~95 px), several cells further up
+  double code_threshold_offset{10.0};  ///< grey levels below the local mean counted dark
+  double code_min_contrast{40.0};    ///< dark/light cell class means must differ by this (grey)
+  double code_max_mismatch_fraction{0.03};  ///< disagreeing read cells allowed (fraction)
+  int code_min_score_margin{8};      ///< runner-up placement must score this much lower
+                                     ///< (a disagreement costs 4, an agreement gains 1)
+  int code_min_corners{8};           ///< matched sub-pixel corners needed for the PnP
+  double code_max_reproj_px{1.0};    ///< corner reprojection RMS gate after refinement (px)
+
+  // ---- fewer-ring poses and combination ----
+  bool centre_ring_pose{true};       ///< pose from the central set (both circles) when fewer
+                                     ///< than min_rings sets are identified
+  double tracked_yaw_sigma_rad{0.05};  ///< yaw prior taken from the tracked pose (rad)
+  double combine_max_angle_rad{0.05};  ///< ring and code poses must agree this well (rad)
+  double combine_max_offset_ratio{0.03};  ///< ... and to this fraction of the distance
+
   void validate() const;
 };
 
@@ -95,6 +116,19 @@ void visit_fields(V& v, VisionParams& p) {
   v("tracking", p.tracking);
   v("roi_margin", p.roi_margin);
   v("max_frames_without_detection", p.max_frames_without_detection);
+  v("code_enabled", p.code_enabled);
+  v("code_min_cell_px", p.code_min_cell_px);
+  v("code_threshold_block_px", p.code_threshold_block_px);
+  v("code_threshold_offset", p.code_threshold_offset);
+  v("code_min_contrast", p.code_min_contrast);
+  v("code_max_mismatch_fraction", p.code_max_mismatch_fraction);
+  v("code_min_score_margin", p.code_min_score_margin);
+  v("code_min_corners", p.code_min_corners);
+  v("code_max_reproj_px", p.code_max_reproj_px);
+  v("centre_ring_pose", p.centre_ring_pose);
+  v("tracked_yaw_sigma_rad", p.tracked_yaw_sigma_rad);
+  v("combine_max_angle_rad", p.combine_max_angle_rad);
+  v("combine_max_offset_ratio", p.combine_max_offset_ratio);
 }
 
 }  // namespace lander

