@@ -1,32 +1,45 @@
-# lander_add_tests(DIR <dir> LIBS <libs...> [DEFS <compile definitions...>] [DEPENDS <targets>])
-# Registers every <dir>/*_test.cpp as one GoogleTest executable. The CTest label comes from
-# the file name: *_render_test.cpp -> render, *_integration_test.cpp -> integration,
-# anything else -> unit. Each gtest case becomes one CTest test (gtest_discover_tests).
+# lander_add_tests(DIR <dir> NAME <prefix> LIBS <libs...> [DEFS <defs...>] [DEPENDS <targets>])
+# Registers every <dir>/*_test.cpp. Files are grouped by CTest label, taken from the file
+# name: *_render_test.cpp -> render, *_integration_test.cpp -> integration, else unit. Each
+# group is one executable (<prefix>_<label>_tests; fewer executables build and link faster
+# on a 2-core machine); every gtest case becomes one CTest test (gtest_discover_tests), run in
+# its own process. <dir>/support/*.cpp is linked into every group of the folder.
 function(lander_add_tests)
-  cmake_parse_arguments(ARG "" "DIR" "LIBS;DEFS;DEPENDS" ${ARGN})
+  cmake_parse_arguments(ARG "" "DIR;NAME" "LIBS;DEFS;DEPENDS" ${ARGN})
   file(GLOB test_sources CONFIGURE_DEPENDS "${ARG_DIR}/*_test.cpp")
   file(GLOB support_sources CONFIGURE_DEPENDS "${ARG_DIR}/support/*.cpp")
+  set(unit_sources "")
+  set(render_sources "")
+  set(integration_sources "")
   foreach(src IN LISTS test_sources)
     get_filename_component(name "${src}" NAME_WE)
     if(name MATCHES "_render_test$")
-      set(label render)
+      list(APPEND render_sources "${src}")
     elseif(name MATCHES "_integration_test$")
-      set(label integration)
+      list(APPEND integration_sources "${src}")
     else()
-      set(label unit)
+      list(APPEND unit_sources "${src}")
     endif()
-    add_executable(${name} "${src}" ${support_sources})
-    target_link_libraries(${name} PRIVATE ${ARG_LIBS} lander_flags GTest::gtest GTest::gtest_main)
-    target_include_directories(${name} PRIVATE "${CMAKE_SOURCE_DIR}/tests")
+  endforeach()
+  foreach(label unit render integration)
+    if(NOT ${label}_sources)
+      continue()
+    endif()
+    set(exe ${ARG_NAME}_${label}_tests)
+    add_executable(${exe} ${${label}_sources} ${support_sources})
+    target_link_libraries(${exe} PRIVATE ${ARG_LIBS} lander_flags GTest::gtest GTest::gtest_main)
+    target_include_directories(${exe} PRIVATE "${CMAKE_SOURCE_DIR}/tests")
+    target_precompile_headers(${exe} PRIVATE <gtest/gtest.h> <Eigen/Core> <Eigen/Geometry>
+                              <vector> <string> <cmath>)
     if(ARG_DEFS)
-      target_compile_definitions(${name} PRIVATE ${ARG_DEFS})
+      target_compile_definitions(${exe} PRIVATE ${ARG_DEFS})
     endif()
     if(ARG_DEPENDS)
-      add_dependencies(${name} ${ARG_DEPENDS})
+      add_dependencies(${exe} ${ARG_DEPENDS})
     endif()
-    gtest_discover_tests(${name}
+    gtest_discover_tests(${exe}
       PROPERTIES LABELS ${label}
-      DISCOVERY_TIMEOUT 60
+      DISCOVERY_TIMEOUT 120
       DISCOVERY_MODE PRE_TEST)
   endforeach()
 endfunction()

@@ -134,6 +134,7 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
   BaroModel baro(s.sensors.baro, derive_seed(s.seed, "baro"));
   GpsModel gps(s.sensors.gps, derive_seed(s.seed, "gps"));
   UltrasonicModel sonar(s.sensors.ultrasonic, derive_seed(s.seed, "ultrasonic"));
+  MagnetometerModel mag(s.sensors.magnetometer, derive_seed(s.seed, "magnetometer"));
   if (s.faults.gps_step_t_s >= 0) {
     gps.inject_offset(s.faults.gps_step_t_s, s.faults.gps_step_duration_s, s.faults.gps_step_W_m);
   }
@@ -144,6 +145,7 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
   DelayQueue<BaroSample> baro_q;
   DelayQueue<GpsSample> gps_q;
   DelayQueue<UltrasonicSample> sonar_q;
+  DelayQueue<MagSample> mag_q;
   DelayQueue<PlatformObservation> vision_q;
   DelayQueue<std::pair<double, double>> vision_alt_q;  // (t, height above plane)
 
@@ -152,12 +154,10 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
   RingTargetDetector detector(cam, world.target(), s.estimator.vision);
   Navigation nav(s.estimator.navigation);
   AltitudeFusion fusion(s.estimator.altitude);
-  // The vehicle knows it starts on its launch point's GPS altitude; here it starts in the
-  // air, so the filter starts from the first barometer reading (bias unknown).
+  // The vehicle starts in the air: the filter starts from the first barometer reading, with
+  // the split between height and barometer bias left to GPS and vision.
   bool fusion_started = false;
   ctl::LandingController controller(s.controller, mount);
-  ImuSample last_imu;
-  bool have_imu = false;
 
   // ---- camera schedule ----
   CameraPipeline camera(s.camera, derive_seed(s.seed, "camera"));
@@ -193,6 +193,7 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
   int frames = 0, detections = 0, keyframes = 0, keyframes_rejected = 0;
   std::map<std::string, int> not_detected_reasons;
   ErrorStats fused_z_err, fused_h_err;
+  AltitudeMetrics alt_metrics;  // per-sensor height errors against truth (seed 004 figures)
   double t_first_contact = -1, t_landed_confirm = -1;
   bool touched_ground = false;
   Json touchdown = Json::object();
@@ -259,7 +260,14 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
         const double deliver = frame.exposure.t_end_s + latency;
         vision_q.push(to_platform_observation(det, t_mid), deliver);
         if (det.detected && det.keyframe) {
-          vision_alt_q.push({t_mid, height_above_target_m(det.X_CP, mount.X_BC())}, deliver);
+          const double h_vision = height_above_target_m(det.X_CP, mount.X_BC());
+          vision_alt_q.push({t_mid, h_vision}, deliver);
+          // Truth at mid-exposure (the state now is the exposure end).
+          const double z_mid = world.X_WB().translation().z() -
+                               world.v_WB().z() * (frame.exposure.t_end_s - t_mid);
+          const double h_ray = world.ray_distance(world.X_WB().translation(), -Eigen::Vector3d::UnitZ());
+          alt_metrics.add("vision", h_vision - (z_mid - world.X_WP().translation().z()),
+                          h_ray > 0 ? h_ray : z_mid);
         }
         if (o.video) {
           cv::Mat small;
@@ -337,17 +345,37 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
       throw std::runtime_error(fmt("the vehicle state diverged at t = %.3f s", tn));
     }
 
-    // ---- sensors -> queues ----
+    // ---- sensors -> queues; each height sensor's error against truth at its sampling time ----
     const auto tc0 = Clock::now();
+    const double true_z = truth.X_WB.translation().z();
+    const double true_h = std::isfinite(truth.h_surface_m) ? truth.h_surface_m : true_z;
     if (imu.due(tn)) imu_q.push(imu.sample(truth), tn + s.sensors.imu.latency_s);
-    if (baro.due(tn)) baro_q.push(baro.sample(truth), tn + s.sensors.baro.latency_s);
-    if (gps.due(tn)) gps_q.push(gps.sample(truth), tn + s.sensors.gps.latency_s);
-    if (sonar.due(tn)) sonar_q.push(sonar.sample(truth), tn + s.sensors.ultrasonic.latency_s);
+    if (mag.due(tn)) mag_q.push(mag.sample(truth), tn + s.sensors.magnetometer.latency_s);
+    if (baro.due(tn)) {
+      const BaroSample b = baro.sample(truth);
+      alt_metrics.add("baro", isa_altitude_m(b.pressure_pa) - s.estimator.altitude.baro_origin_msl_m - true_z, true_h);
+      baro_q.push(b, tn + s.sensors.baro.latency_s);
+    }
+    if (gps.due(tn)) {
+      const GpsSample g = gps.sample(truth);
+      if (g.valid) alt_metrics.add("gps", g.p_W_m.z() - true_z, true_h);
+      gps_q.push(g, tn + s.sensors.gps.latency_s);
+    }
+    if (sonar.due(tn)) {
+      const UltrasonicSample u = sonar.sample(truth);
+      // In range only (eq. 12): outside it the reading is garbage by design.
+      if (u.range_m >= s.sensors.ultrasonic.min_range_m && u.range_m <= s.sensors.ultrasonic.max_range_m &&
+          std::isfinite(truth.range_m)) {
+        alt_metrics.add("ultrasonic", u.range_m * truth.X_WB.linear()(2, 2) - true_h, true_h);
+      }
+      sonar_q.push(u, tn + s.sensors.ultrasonic.latency_s);
+    }
 
     // ---- flight software: estimation ----
     for (const BaroSample& b : baro_q.pop_ready(tn)) {
       if (!fusion_started) {
-        fusion.reset(b.t_s, isa_altitude_m(b.pressure_pa) - s.estimator.altitude.baro_origin_msl_m, 0.0);
+        // In the air at start: the first reading fixes height + baro bias, not their split.
+        fusion.reset_from_baro(b);
         fusion_started = true;
       }
       fusion.update_baro(b);
@@ -363,10 +391,9 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
       if (fusion_started) fusion.update_vision(va.first, va.second);
     }
     for (const PlatformObservation& ob : vision_q.pop_ready(tn)) controller.on_vision(ob);
+    for (const MagSample& ms : mag_q.pop_ready(tn)) nav.add_mag(ms);
     for (const ImuSample& s_imu : imu_q.pop_ready(tn)) {
       nav.add_imu(s_imu);
-      last_imu = s_imu;
-      have_imu = true;
       const NavState ns = nav.state();
       if (fusion_started) {
         fusion.predict(s_imu, ns.q_WB, s.sensors.imu.gravity_mps2);
@@ -385,6 +412,10 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
     if (fusion_started) {
       const AltitudeEstimate a = fusion.estimate();
       fused_z_err.add(a.z_W_m - truth.X_WB.translation().z());
+      if (k % 10 == 0) {  // 100 Hz, the rate of the fastest height sensor
+        alt_metrics.add("fused", a.z_W_m - truth.X_WB.translation().z(),
+                        std::isfinite(truth.h_surface_m) ? truth.h_surface_m : truth.X_WB.translation().z());
+      }
       if (std::isfinite(truth.h_surface_m)) fused_h_err.add(a.h_surface_m - truth.h_surface_m);
     }
     bool on_platform = false, on_ground = false;
@@ -522,6 +553,7 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
   alt["fused_z_max_m"] = fused_z_err.max_abs_m;
   alt["fused_h_surface_rmse_m"] = fused_h_err.rmse_m();
   alt["fused_h_surface_max_m"] = fused_h_err.max_abs_m;
+  alt["by_sensor"] = Json::raw(alt_metrics.to_json());
   summary["altitude_fusion"] = alt;
   return res;
 }

@@ -84,6 +84,12 @@ void Json::dump_to(std::string& out, int indent, int depth) const {
       break;
     }
     case Type::String: escape(out, str_); break;
+    case Type::Raw: {
+      std::string t = str_;
+      while (!t.empty() && (t.back() == '\n' || t.back() == ' ')) t.pop_back();
+      out += t;
+      break;
+    }
     case Type::Array:
       if (items_.empty()) { out += "[]"; break; }
       out += '[';

@@ -31,6 +31,7 @@ void SensorSuiteParams::validate() const {
   validate_named(baro, "baro");
   validate_named(gps, "gps");
   validate_named(ultrasonic, "ultrasonic");
+  validate_named(magnetometer, "magnetometer");
 }
 
 // ---------------------------------------------------------------------------------- IMU
@@ -159,6 +160,21 @@ UltrasonicSample UltrasonicModel::sample(const VehicleTruth& truth) {
   const bool glitch = p_.glitch_prob > 0 && u_(rng_) < p_.glitch_prob;
   last_garbage_ = !in_range || burst || glitch;
   s.range_m = last_garbage_ ? garbage() : r + p_.noise_std_m * n_(rng_);  // eq. 12
+  return s;
+}
+
+// -------------------------------------------------------------------------- magnetometer
+MagnetometerModel::MagnetometerModel(const MagnetometerParams& p, std::uint64_t seed)
+    : p_(p), rng_(seed), clock_((p.validate(), p.rate_hz)) {
+  for (int i = 0; i < 3; ++i) bias_[i] = p_.bias_std_uT * n_(rng_);
+}
+
+MagSample MagnetometerModel::sample(const VehicleTruth& truth) {
+  clock_.advance(truth.t_s);
+  MagSample s;
+  s.t_s = truth.t_s;
+  s.field_B_uT = truth.X_WB.linear().transpose() * p_.field_W_uT + bias_;
+  for (int i = 0; i < 3; ++i) s.field_B_uT[i] += p_.noise_std_uT * n_(rng_);
   return s;
 }
 

@@ -11,6 +11,8 @@ void NavigationParams::validate() const {
   require(mahony_ki >= 0, "mahony_ki", "must be >= 0");
   require(accel_gate_frac > 0 && accel_gate_frac < 1, "accel_gate_frac", "must be in (0, 1)");
   require(gyro_bias_limit_radps > 0, "gyro_bias_limit_radps", "must be > 0");
+  require(mag_field_W_uT.head<2>().norm() > 1.0, "mag_field_W_uT", "needs a horizontal component");
+  require(mag_k_yaw >= 0, "mag_k_yaw", "must be >= 0");
   require(accel_lowpass_s > 0, "accel_lowpass_s", "must be > 0");
   require(mahony_k_yaw >= 0, "mahony_k_yaw", "must be >= 0");
   require(yaw_min_accel_mps2 > 0, "yaw_min_accel_mps2", "must be > 0");
@@ -29,6 +31,26 @@ void NavigationParams::validate() const {
 Navigation::Navigation(const NavigationParams& p) : p_(p) {
   p_.validate();
   for (auto& P : P_) P.setZero();
+}
+
+bool Navigation::add_mag(const MagSample& mag) {
+  if (!att_init_ || !p_.use_magnetometer || !mag.field_B_uT.allFinite()) return false;
+  // Heading of the measured field's horizontal part in W, against the reference's.
+  const Eigen::Vector3d m_W = q_WB_ * mag.field_B_uT;
+  if (m_W.head<2>().norm() < 1e-6) return false;
+  const double err = std::remainder(std::atan2(p_.mag_field_W_uT.y(), p_.mag_field_W_uT.x()) -
+                                        std::atan2(m_W.y(), m_W.x()),
+                                    2.0 * M_PI);
+  double frac = 1.0;  // first sample: take the compass heading
+  if (mag_init_) {
+    const double dt = std::clamp(mag.t_s - t_mag_s_, 0.0, 1.0);
+    frac = 1.0 - std::exp(-p_.mag_k_yaw * dt);
+  }
+  q_WB_ = Eigen::Quaterniond(Eigen::AngleAxisd(frac * err, Eigen::Vector3d::UnitZ())) * q_WB_;
+  q_WB_.normalize();
+  t_mag_s_ = mag.t_s;
+  mag_init_ = true;
+  return true;
 }
 
 void Navigation::add_imu(const ImuSample& imu) {

@@ -62,6 +62,10 @@ struct NavigationParams {
   double gate_sigma{3.0};                 ///< residual gate (multiples of sqrt(P~))
   double gate_factor_n{0.1};              ///< gain factor beyond the gate (eq. 27)
   double max_sample_age_s{0.5};           ///< older GPS fixes are dropped (s)
+  bool use_magnetometer{true};            ///< correct yaw from the magnetometer (add_mag)
+  Eigen::Vector3d mag_field_W_uT{22.0, 2.0, -42.0};  ///< reference field in W (uT), from a
+                                          ///< world magnetic model for the site
+  double mag_k_yaw{0.5};                  ///< yaw correction gain (1/s)
 
   void validate() const;
 };
@@ -87,6 +91,9 @@ void visit_fields(V& v, NavigationParams& p) {
   v("gate_sigma", p.gate_sigma);
   v("gate_factor_n", p.gate_factor_n);
   v("max_sample_age_ms", p.max_sample_age_s, 1e-3);
+  v("use_magnetometer", p.use_magnetometer);
+  v("mag_field_W_uT", p.mag_field_W_uT);
+  v("mag_k_yaw", p.mag_k_yaw);
 }
 
 class Navigation {
@@ -98,6 +105,11 @@ class Navigation {
   // Fuses one GPS fix. The first valid fix initialises position and velocity. Returns false
   // if the fix was not used (invalid, stale, before the first IMU sample).
   bool add_gps(const GpsSample& gps);
+  // Corrects yaw from one magnetometer sample: the horizontal direction of the measured field,
+  // rotated into W with the current attitude, is pulled towards the reference field's
+  // (complementary, gain mag_k_yaw). The first sample sets the yaw outright (compass heading
+  // at start). Returns false if not used (before the first IMU sample, or disabled).
+  bool add_mag(const MagSample& mag);
   // The navigation solution; valid once both IMU and a GPS fix have been received.
   NavState state() const;
   const Eigen::Vector3d& gyro_bias_B() const { return b_g_; }
@@ -106,7 +118,8 @@ class Navigation {
 
  private:
   NavigationParams p_;
-  bool att_init_{false}, pos_init_{false};
+  bool att_init_{false}, pos_init_{false}, mag_init_{false};
+  double t_mag_s_{0.0};
   double t_s_{0.0};
   Eigen::Quaterniond q_WB_{Eigen::Quaterniond::Identity()};
   Eigen::Vector3d b_g_{Eigen::Vector3d::Zero()};

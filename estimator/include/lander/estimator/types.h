@@ -100,6 +100,12 @@ struct GpsSample {
   Eigen::Vector3d v_W_mps{Eigen::Vector3d::Zero()};
 };
 
+// Magnetometer: the local magnetic field in B (microtesla), hard-iron bias included.
+struct MagSample {
+  double t_s{0.0};
+  Eigen::Vector3d field_B_uT{Eigen::Vector3d::Zero()};
+};
+
 // Ultrasonic range straight down along -z of B. Outside 0.15-3.05 m the reading is garbage
 // (seed 004 eq. 12); the sensor does not flag it.
 struct UltrasonicSample {

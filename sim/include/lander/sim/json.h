@@ -14,7 +14,7 @@ namespace lander::sim {
 
 class Json {
  public:
-  enum class Type { Null, Bool, Number, String, Array, Object };
+  enum class Type { Null, Bool, Number, String, Array, Object, Raw };
 
   Json() = default;                       // null
   Json(bool b) : type_(Type::Bool), bool_(b) {}
@@ -28,6 +28,8 @@ class Json {
 
   static Json object() { Json j; j.type_ = Type::Object; return j; }
   static Json array() { Json j; j.type_ = Type::Array; return j; }
+  // Already-serialised JSON text, written verbatim (e.g. a helper's to_json()).
+  static Json raw(std::string text) { Json j; j.type_ = Type::Raw; j.str_ = std::move(text); return j; }
 
   // Object access: inserts the key (in order) if absent.
   Json& operator[](const std::string& key);

@@ -322,11 +322,54 @@ class UltrasonicModel {
 };
 
 // All sensor params together (models/sensors_default.yaml has this layout).
+// ------------------------------------------------------------------------- magnetometer
+// Three-axis magnetometer: R_WB^T m_W + hard-iron bias + white noise. A flight controller's
+// compass: what makes yaw observable (without it, yaw is the gyro integral and drifts).
+struct MagnetometerParams {
+  double rate_hz{50.0};                               ///< sample rate (Hz)
+  double latency_s{0.0};                              ///< delivery latency (s)
+  Eigen::Vector3d field_W_uT{22.0, 2.0, -42.0};       ///< local field in W (uT), mid-latitude
+  double noise_std_uT{0.3};                           ///< white noise per axis (uT)
+  double bias_std_uT{0.5};                            ///< residual hard-iron bias after calibration, std (uT)
+  void validate() const {
+    require(rate_hz > 0, "rate_hz", "must be > 0");
+    require(latency_s >= 0, "latency_s", "must be >= 0");
+    require(field_W_uT.head<2>().norm() > 1.0, "field_W_uT", "needs a horizontal component (uT)");
+    require(noise_std_uT >= 0, "noise_std_uT", "must be >= 0");
+    require(bias_std_uT >= 0, "bias_std_uT", "must be >= 0");
+  }
+};
+
+template <class V>
+void visit_fields(V& v, MagnetometerParams& p) {
+  v("rate_hz", p.rate_hz);
+  v("latency_ms", p.latency_s, 1e-3);
+  v("field_W_uT", p.field_W_uT);
+  v("noise_std_uT", p.noise_std_uT);
+  v("bias_std_uT", p.bias_std_uT);
+}
+
+class MagnetometerModel {
+ public:
+  MagnetometerModel(const MagnetometerParams& p, std::uint64_t seed);  // validates p, draws bias
+  bool due(double t_s) const { return clock_.due(t_s); }
+  MagSample sample(const VehicleTruth& truth);  // stamped truth.t_s
+  const Eigen::Vector3d& bias_B_uT() const { return bias_; }
+
+ private:
+  MagnetometerParams p_;
+  std::mt19937_64 rng_;
+  std::normal_distribution<double> n_{0.0, 1.0};
+  RateClock clock_;
+  Eigen::Vector3d bias_{Eigen::Vector3d::Zero()};
+};
+
 struct SensorSuiteParams {
   ImuParams imu;
   BaroParams baro;
   GpsParams gps;
   UltrasonicParams ultrasonic;
+  MagnetometerParams magnetometer;
   // Throws ConfigError whose message names the sensor and the field ("baro: ...").
   void validate() const;
 };
@@ -337,6 +380,7 @@ void visit_fields(V& v, SensorSuiteParams& p) {
   v.nested("baro", p.baro);
   v.nested("gps", p.gps);
   v.nested("ultrasonic", p.ultrasonic);
+  v.nested("magnetometer", p.magnetometer);
 }
 
 // One independent seed per random stream from the scenario seed (SplitMix64 of seed and

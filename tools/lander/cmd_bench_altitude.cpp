@@ -1,0 +1,156 @@
+// `lander bench altitude --json FILE [--quick]`
+// Seed 004's experiments in the closed-loop simulator, with vision from rendered frames:
+//   static:  the vehicle holds 5.12, 9.32, 13.52 and 17.72 m above the (static) platform
+//            (the controller stays in observe: it never starts an approach);
+//   hover:   10 m above the platform for 60 s in light wind;
+//   descent: the default landing, from 10 m to touchdown;
+//   faults:  the default landing with a GPS step of +5 m for 2 s, an ultrasonic garbage
+//            burst, and vision outliers, each reporting the fused estimate's max deviation.
+// Per sensor (baro, gps, vision, ultrasonic in range, fused): RMSE and max error per band
+// (all, above_3m, below_3m), from each run's summary (altitude_fusion.by_sensor).
+#include <cmath>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+#include "command.h"
+#include "lander/sim/json.h"
+#include "lander/sim/run.h"
+
+namespace lander::cli {
+namespace {
+
+std::string slurp(const std::string& path) {
+  std::ifstream f(path);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+// The "by_sensor" object of a run's summary.json, as text.
+std::string by_sensor(const std::string& summary_text) {
+  const std::string key = "\"by_sensor\": ";
+  const auto pos = summary_text.find(key);
+  if (pos == std::string::npos) throw std::runtime_error("summary has no altitude_fusion.by_sensor");
+  // The object ends where its braces balance.
+  int depth = 0;
+  for (std::size_t i = pos + key.size(); i < summary_text.size(); ++i) {
+    if (summary_text[i] == '{') ++depth;
+    if (summary_text[i] == '}' && --depth == 0) return summary_text.substr(pos + key.size(), i - pos - key.size() + 1);
+  }
+  throw std::runtime_error("malformed summary");
+}
+
+// Max |fused z - true z| over [t0, t1] from a run's trace.csv.
+double max_fused_deviation(const std::string& trace_path, double t0, double t1) {
+  std::ifstream f(trace_path);
+  std::string line;
+  std::getline(f, line);
+  std::vector<std::string> cols;
+  std::stringstream hs(line);
+  for (std::string c; std::getline(hs, c, ',');) cols.push_back(c);
+  auto idx = [&](const std::string& name) {
+    for (std::size_t i = 0; i < cols.size(); ++i) if (cols[i] == name) return i;
+    throw std::runtime_error("trace.csv has no column " + name);
+  };
+  const std::size_t it = idx("t_s"), iz = idx("z_WB_m"), ifz = idx("fused_z_m");
+  double worst = 0;
+  while (std::getline(f, line)) {
+    std::vector<std::string> v;
+    std::stringstream ls(line);
+    for (std::string c; std::getline(ls, c, ',');) v.push_back(c);
+    const double t = std::stod(v[it]);
+    if (t < t0 || t > t1) continue;
+    worst = std::max(worst, std::abs(std::stod(v[ifz]) - std::stod(v[iz])));
+  }
+  return worst;
+}
+
+int bench_altitude(const Args& args) {
+  ArgParser a(args, {"json", "out"}, {"quick"});
+  if (!a.has("json")) throw UsageError("usage: lander bench altitude --json FILE [--quick]");
+  const bool quick = a.flag("quick");
+  const std::string out = a.value("out", "/tmp/lander_bench_altitude");
+  const std::string dir = std::string(LANDER_SCENARIOS_DIR);
+  sim::Json result = sim::Json::object();
+  auto run = [&](sim::Scenario s, const std::string& name) {
+    sim::RunOptions o;
+    o.out_dir = out + "/" + name;
+    s.name = name;
+    std::cerr << "bench altitude: " << name << " (" << s.duration_s << " s simulated)\n";
+    sim::run_scenario(s, o);
+    return o.out_dir;
+  };
+  // Static: hold above the static platform, never approach.
+  sim::Json statics = sim::Json::object();
+  const std::vector<double> heights = quick ? std::vector<double>{5.12} : std::vector<double>{5.12, 9.32, 13.52, 17.72};
+  for (double h : heights) {
+    sim::Scenario s = sim::Scenario::load(dir + "/static_platform.yaml");
+    s.vehicle.start_p_W_m = {0.0, 0.0, 0.8 + h};
+    s.controller.landing.observe_frames = 1000000;
+    s.duration_s = quick ? 10.0 : 30.0;
+    const std::string d = run(s, "static_" + std::to_string(static_cast<int>(h * 100)));
+    statics[std::to_string(h).substr(0, 5)] = sim::Json::raw(by_sensor(slurp(d + "/summary.json")));
+  }
+  result["static"] = statics;
+  {  // Hover at 10 m for 60 s in light wind.
+    sim::Scenario s = sim::Scenario::load(dir + "/static_platform.yaml");
+    s.vehicle.start_p_W_m = {0.0, 0.0, 10.8};
+    s.controller.landing.observe_frames = 1000000;
+    s.wind.steady_W_mps = {1.0, 0.5, 0.0};
+    s.wind.gust_std_horizontal_mps = 0.3;
+    s.duration_s = quick ? 10.0 : 60.0;
+    result["hover"] = sim::Json::raw(by_sensor(slurp(run(s, "hover") + "/summary.json")));
+  }
+  {  // Descent: the default landing.
+    sim::Scenario s = sim::Scenario::load(dir + "/default.yaml");
+    if (quick) s.duration_s = 30.0;
+    result["descent"] = sim::Json::raw(by_sensor(slurp(run(s, "descent") + "/summary.json")));
+  }
+  sim::Json faults = sim::Json::object();
+  {
+    sim::Scenario s = sim::Scenario::load(dir + "/default.yaml");
+    s.faults.gps_step_t_s = 12.0;
+    s.faults.gps_step_duration_s = 2.0;
+    s.faults.gps_step_W_m = {0.0, 0.0, 5.0};
+    s.duration_s = quick ? 20.0 : s.duration_s;
+    const std::string d = run(s, "fault_gps_step");
+    sim::Json j = sim::Json::object();
+    j["fault"] = "GPS +5 m vertical step for 2 s at t = 12 s";
+    j["fused_max_deviation_m"] = max_fused_deviation(d + "/trace.csv", 12.0, 16.0);
+    faults["gps_step"] = j;
+  }
+  {
+    sim::Scenario s = sim::Scenario::load(dir + "/default.yaml");
+    s.faults.ultrasonic_garbage_t_s = 12.0;
+    s.faults.ultrasonic_garbage_duration_s = 1.0;
+    s.duration_s = quick ? 20.0 : s.duration_s;
+    const std::string d = run(s, "fault_ultrasonic_garbage");
+    sim::Json j = sim::Json::object();
+    j["fault"] = "ultrasonic garbage burst of 1 s at t = 12 s";
+    j["fused_max_deviation_m"] = max_fused_deviation(d + "/trace.csv", 12.0, 15.0);
+    faults["ultrasonic_garbage"] = j;
+  }
+  {
+    sim::Scenario s = sim::Scenario::load(dir + "/default.yaml");
+    s.faults.vision_outlier_t_s = 12.0;
+    s.faults.vision_outlier_frames = 5;
+    s.faults.vision_outlier_m = 1.0;
+    s.duration_s = quick ? 20.0 : s.duration_s;
+    const std::string d = run(s, "fault_vision_outliers");
+    sim::Json j = sim::Json::object();
+    j["fault"] = "5 consecutive vision poses 1 m off along the optical axis from t = 12 s";
+    j["fused_max_deviation_m"] = max_fused_deviation(d + "/trace.csv", 12.0, 15.0);
+    faults["vision_outliers"] = j;
+  }
+  result["faults"] = faults;
+  sim::write_text_file(a.value("json"), result.dump());
+  std::cout << result.dump();
+  return kExitOk;
+}
+
+const LanderCommand reg("altitude", "altitude --json FILE [--quick] [--out DIR]", Kind::Bench,
+                        bench_altitude);
+
+}  // namespace
+}  // namespace lander::cli
