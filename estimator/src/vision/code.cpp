@@ -36,6 +36,15 @@ constexpr double kVpInlierPx = 2.0;
 // Vertex inlier distance to its lattice prediction, as a fraction of the local cell side:
 // corners move at most a threshold bias (~1 px) plus the polygon tolerance.
 constexpr double kLatticeInlierFrac = 0.22;
+// Doubling test of the lattice period: the true period keeps at least this fraction of the
+// coherence at twice a half period; at twice the true period it drops to about zero.
+constexpr double kDoublingCoherence = 0.7;
+// Polygon sides shorter than this fraction of the length-weighted median side are ignored
+// for the lattice period (a third of a cell at most, when the median is one cell).
+constexpr double kMinSideOfMedian = 0.35;
+// Seed region radius for the first lattice labels (cells) and the corners it needs.
+constexpr double kSeedRadiusCells = 3.5;
+constexpr std::size_t kMinSeedCorners = 12;
 // Cell reading: samples in the inner half of the cell (4 x 4) avoid the blurred edges.
 constexpr int kCellSamples = 4;
 // A cell whose mean lies within this fraction of the class separation from the threshold is
@@ -134,19 +143,46 @@ std::optional<Eigen::Vector3d> vanishing_point(std::vector<Segment>& segs, const
 // Lattice spacing and phase of 1-D coordinates x_k that lie near x0 + i * delta: delta from
 // the segment lengths (the largest period consistent with them: lengths are whole numbers
 // of cells), refined by the coherence of the vertex positions.
-std::optional<std::pair<double, double>> lattice_1d(const std::vector<double>& lengths,
+std::optional<std::pair<double, double>> lattice_1d(const std::vector<double>& lengths_in,
                                                     const std::vector<double>& x) {
-  if (lengths.empty() || x.size() < 4) return std::nullopt;
+  if (lengths_in.empty() || x.size() < 4) return std::nullopt;
+  // Length-weighted median: short jagged sides (polygon noise, cut corners) carry little
+  // weight; sides of one or more whole cells dominate.
+  std::vector<double> sorted = lengths_in;
+  std::sort(sorted.begin(), sorted.end());
+  double total = 0.0, acc = 0.0, wmed = sorted.back();
+  for (double L : sorted) total += L;
+  for (double L : sorted) {
+    acc += L;
+    if (acc >= 0.5 * total) {
+      wmed = L;
+      break;
+    }
+  }
+  // Sides shorter than a third of that are noise, not whole cells.
+  std::vector<double> lengths;
+  for (double L : lengths_in) {
+    if (L >= kMinSideOfMedian * wmed) lengths.push_back(L);
+  }
+  if (lengths.empty()) return std::nullopt;
   auto len_score = [&](double d) {
-    double s = 0.0;
-    for (double L : lengths) s += std::cos(2 * M_PI * L / d);
-    return s / lengths.size();
+    double s = 0.0, w = 0.0;
+    for (double L : lengths) {
+      s += L * std::cos(2 * M_PI * L / d);
+      w += L;
+    }
+    return s / w;
   };
+  // Candidate periods: lengths and half lengths, at most 1.3 weighted median lengths (every
+  // grid side is a whole number of cells, so one cell is below that; a long side such as the
+  // platform edge would otherwise win: any period far above all lengths scores 1).
+  const double dmax = 1.3 * wmed;
   std::vector<double> cands;
   for (double L : lengths) {
-    cands.push_back(L);
-    cands.push_back(0.5 * L);
+    if (L <= dmax) cands.push_back(L);
+    if (0.5 * L <= dmax) cands.push_back(0.5 * L);
   }
+  if (cands.empty()) return std::nullopt;
   double best = -1e9;
   for (double d : cands) best = std::max(best, len_score(d));
   double delta = 0.0;
@@ -167,6 +203,14 @@ std::optional<std::pair<double, double>> lattice_1d(const std::vector<double>& l
     if (c > best_c) {
       best_c = c;
       best_d = d;
+    }
+  }
+  // Half-period trap: if the segment lengths suggested half a cell, the vertex positions
+  // are as coherent at twice the period (at the true period, twice it splits them in two).
+  for (int k = 0; k < 2; ++k) {
+    if (coherence(2 * best_d, nullptr) >= kDoublingCoherence * best_c) {
+      best_d *= 2;
+      best_c = coherence(best_d, nullptr);
     }
   }
   double phase = 0.0;
@@ -346,9 +390,17 @@ CodePlacement place_code_cells(const std::vector<ObservedCell>& cells, const Tar
       best.full_window = all;
     }
   }
+  int in_map = 0;
+  for (char c : seen) in_map += c;
   std::ostringstream os;
-  if (!best.full_window) {
-    os << "no full " << b << "x" << b << " window among the read cells";
+  // Uniqueness: a full b x b window is unique by construction of the map. Below ~0.2 m a
+  // 45-deg yawed view holds no full window, so a read of at least 2 b^2 map cells is also
+  // accepted: its uniqueness is then checked directly, every other placement of these cells
+  // (all rotations and offsets) must score code_min_score_margin lower (disagree on at
+  // least two more cells).
+  if (!best.full_window && in_map < 2 * b * b) {
+    os << "no full " << b << "x" << b << " window among the read cells and only " << in_map
+       << " map cells (need " << 2 * b * b << ")";
   } else if (best.mismatched > p.code_max_mismatch_fraction * best.compared) {
     os << best.mismatched << " of " << best.compared << " read cells disagree with the map";
   } else if (best_score - second_score < p.code_min_score_margin) {
@@ -457,23 +509,7 @@ CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
     const Eigen::Vector3d q = Hp * Eigen::Vector3d((px.x() - cpp.x()) / f, (px.y() - cpp.y()) / f, 1);
     return Eigen::Vector2d(Bi * (q.head<2>() / q.z()));
   };
-  std::vector<double> xs, ys, lenA, lenB;
-  for (const auto& v : verts) {
-    const Eigen::Vector2d r = rect(v);
-    xs.push_back(r.x());
-    ys.push_back(r.y());
-  }
-  for (const auto& s : famA) lenA.push_back(std::abs(rect(s.p1).x() - rect(s.p0).x()));
-  for (const auto& s : famB) lenB.push_back(std::abs(rect(s.p1).y() - rect(s.p0).y()));
-  const auto lx = lattice_1d(lenA, xs), ly = lattice_1d(lenB, ys);
-  if (!lx || !ly) return fail("no lattice spacing");
-  std::vector<Eigen::Vector2d> lab, img;
-  for (std::size_t i = 0; i < verts.size(); ++i) {
-    lab.emplace_back(std::round((xs[i] - lx->second) / lx->first),
-                     std::round((ys[i] - ly->second) / ly->first));
-    img.push_back(verts[i]);
-  }
-  // Cell size (px) for the RANSAC threshold: median distance to the nearest other vertex.
+  // Cell size (px): median distance to the nearest other vertex.
   std::vector<double> nn;
   for (std::size_t i = 0; i < verts.size(); ++i) {
     double best = 1e18;
@@ -486,14 +522,67 @@ CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
   if (nn.empty()) return fail("isolated corners");
   std::nth_element(nn.begin(), nn.begin() + nn.size() / 2, nn.end());
   const double cell0 = nn[nn.size() / 2];
+  // Seed region: the lattice is labelled first near the vertex closest to the median vertex
+  // (perspective left over from the vanishing-point estimates is small there), then grown.
+  std::vector<double> mx, my;
+  for (const auto& v : verts) {
+    mx.push_back(v.x());
+    my.push_back(v.y());
+  }
+  std::nth_element(mx.begin(), mx.begin() + mx.size() / 2, mx.end());
+  std::nth_element(my.begin(), my.begin() + my.size() / 2, my.end());
+  const Eigen::Vector2d med(mx[mx.size() / 2], my[my.size() / 2]);
+  Eigen::Vector2d seed = verts[0];
+  for (const auto& v : verts) {
+    if ((v - med).norm() < (seed - med).norm()) seed = v;
+  }
+  double R0 = kSeedRadiusCells * cell0;
+  std::vector<std::size_t> local;
+  for (int grow = 0; grow < 6; ++grow, R0 *= 1.5) {
+    local.clear();
+    for (std::size_t i = 0; i < verts.size(); ++i) {
+      if ((verts[i] - seed).norm() <= R0) local.push_back(i);
+    }
+    if (local.size() >= kMinSeedCorners) break;
+  }
+  std::vector<double> xs, ys, lenA, lenB;
+  for (std::size_t i : local) {
+    const Eigen::Vector2d r = rect(verts[i]);
+    xs.push_back(r.x());
+    ys.push_back(r.y());
+  }
+  auto near_seed = [&](const Segment& sg) { return (0.5 * (sg.p0 + sg.p1) - seed).norm() <= 2 * R0; };
+  for (const auto& sg : famA) {
+    if (near_seed(sg)) lenA.push_back(std::abs(rect(sg.p1).x() - rect(sg.p0).x()));
+  }
+  for (const auto& sg : famB) {
+    if (near_seed(sg)) lenB.push_back(std::abs(rect(sg.p1).y() - rect(sg.p0).y()));
+  }
+  const auto lx = lattice_1d(lenA, xs), ly = lattice_1d(lenB, ys);
+  if (!lx || !ly) return fail("no lattice spacing");
+  std::vector<Eigen::Vector2d> lab, img;
+  for (std::size_t k = 0; k < local.size(); ++k) {
+    lab.emplace_back(std::round((xs[k] - lx->second) / lx->first),
+                     std::round((ys[k] - ly->second) / ly->first));
+    img.push_back(verts[local[k]]);
+  }
   auto H = fit_homography(lab, img, true, kLatticeInlierFrac * cell0);
   if (!H) return fail("no lattice homography");
+  // Growth: relabel the corners within a growing radius of the seed with the current
+  // homography, keep those on the lattice, refit.
   std::vector<Eigen::Vector2i> in_lab;
-  for (int it = 0; it < 4; ++it) {
+  double radius = 2 * R0;
+  for (int it = 0; it < 12; ++it, radius *= 1.5) {
+    const bool last = it == 11;
     const Eigen::Matrix3d Hi = H->inverse();
     std::vector<Eigen::Vector2d> l2, i2;
     in_lab.clear();
+    bool all = true;
     for (const auto& v : verts) {
+      if (!last && (v - seed).norm() > radius) {
+        all = false;
+        continue;
+      }
       const Eigen::Vector2d q = apply_h(Hi, v);
       const Eigen::Vector2d r(std::round(q.x()), std::round(q.y()));
       const double cell = (apply_h(*H, r + Eigen::Vector2d(0.5, 0)) -
@@ -507,6 +596,41 @@ CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
     auto H2 = fit_homography(l2, i2, false, 0.0);
     if (!H2) return fail("lattice homography failed");
     H = H2;
+    if (all && it >= 2) break;
+  }
+  // Keep the corners of one code map: labels within cells + 2 of the median label (corners
+  // of the platform edge or ring polygons far away can fall on the lattice by chance).
+  {
+    std::vector<int> la, lb;
+    for (const auto& l : in_lab) {
+      la.push_back(l.x());
+      lb.push_back(l.y());
+    }
+    std::nth_element(la.begin(), la.begin() + la.size() / 2, la.end());
+    std::nth_element(lb.begin(), lb.begin() + lb.size() / 2, lb.end());
+    const int ma = la[la.size() / 2], mb = lb[lb.size() / 2], reach = g.code.cells + 2;
+    std::vector<Eigen::Vector2d> l2, i2;
+    std::vector<Eigen::Vector2i> kept;
+    const Eigen::Matrix3d Hi = H->inverse();
+    for (const auto& v : verts) {
+      const Eigen::Vector2d q = apply_h(Hi, v);
+      const Eigen::Vector2i r(static_cast<int>(std::lround(q.x())), static_cast<int>(std::lround(q.y())));
+      const Eigen::Vector2d rd = r.cast<double>();
+      const double cell = (apply_h(*H, rd + Eigen::Vector2d(0.5, 0)) -
+                           apply_h(*H, rd - Eigen::Vector2d(0.5, 0))).norm();
+      if ((apply_h(*H, rd) - v).norm() > kLatticeInlierFrac * cell) continue;
+      if (std::abs(r.x() - ma) > reach || std::abs(r.y() - mb) > reach) continue;
+      l2.push_back(rd);
+      i2.push_back(v);
+      kept.push_back(r);
+    }
+    if (kept.size() < 8) return fail(std::to_string(kept.size()) + " corners near the code");
+    if (kept.size() < in_lab.size()) {
+      auto H2 = fit_homography(l2, i2, false, 0.0);
+      if (!H2) return fail("lattice homography failed");
+      H = H2;
+    }
+    in_lab = kept;
   }
   // Handedness: the lattice (a, b) must map like the code map's (col, row) (vision_code.h).
   {

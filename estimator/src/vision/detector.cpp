@@ -551,16 +551,35 @@ void combine_sources(RingDetection& d, const std::vector<EllipseCandidate>& cand
         yaw_from = "tracked pose";
       }
       if (!yaw_from.empty()) {
-        const auto ref = vision_internal::refine_pose_conics(
-            K, *X0, obs, p.refine_points_per_ellipse, p.refine_max_iter, &pts,
-            prior ? &*prior : nullptr);
-        if (ref.ok && ref.rms_px <= p.max_edge_residual_px &&
-            (!d.code.detected || poses_agree(ref.X_CP, d.code.X_CP, p))) {
+        // Rings first (yaw from a set or the track), then the code joins if it agrees; with
+        // the yaw from the code itself, conics and corners are refined together.
+        const bool code_yaw = yaw_from == "code";
+        auto ref = vision_internal::refine_pose_conics(K, *X0, obs, p.refine_points_per_ellipse,
+                                                       p.refine_max_iter, code_yaw ? &pts : nullptr,
+                                                       prior ? &*prior : nullptr);
+        bool ok = ref.ok && ref.rms_px <= p.max_edge_residual_px;
+        bool with_code = code_yaw;
+        std::string note;
+        if (ok && !code_yaw && d.code.detected) {
+          if (poses_agree(ref.X_CP, d.code.X_CP, p)) {
+            const auto both = vision_internal::refine_pose_conics(
+                K, ref.X_CP, obs, p.refine_points_per_ellipse, p.refine_max_iter, &pts);
+            if (both.ok && both.rms_px <= p.max_edge_residual_px) {
+              ref = both;
+              with_code = true;
+            }
+          } else {
+            note = "; code pose disagrees with the rings, not used";
+          }
+        }
+        if (ok && code_yaw && !poses_agree(ref.X_CP, d.code.X_CP, p)) ok = false;
+        if (ok) {
           std::ostringstream os;
           os << d.centres.size() << " ring sets identified (centre pair, yaw from " << yaw_from
              << ")";
-          if (d.code.detected) os << " + " << d.code.reason;
-          accept(ref, d.code.detected ? PoseSource::Combined : PoseSource::CentreRing, os.str());
+          if (with_code) os << " + " << d.code.reason;
+          os << note;
+          accept(ref, with_code ? PoseSource::Combined : PoseSource::CentreRing, os.str());
           return;
         }
       } else {

@@ -41,14 +41,27 @@ Eigen::Isometry3d look_at_pose(double altitude_m, double tilt_deg, double yaw_de
 
 namespace {
 
+std::mutex& texture_mutex() {
+  static std::mutex mu;
+  return mu;
+}
+std::map<const TargetGeometry*, std::vector<cv::Mat>>& texture_cache() {
+  static std::map<const TargetGeometry*, std::vector<cv::Mat>> cache;
+  return cache;
+}
+std::map<const TargetGeometry*, cv::Mat>& texture_overrides() {
+  static std::map<const TargetGeometry*, cv::Mat> o;
+  return o;
+}
+
 // Grey float texture pyramid (level k: 2^k texels per level texel), cached per target.
 const std::vector<cv::Mat>& texture_levels(const TargetGeometry& g) {
-  static std::mutex mu;
-  static std::map<const TargetGeometry*, std::vector<cv::Mat>> cache;
-  std::lock_guard<std::mutex> lock(mu);
-  auto& levels = cache[&g];
+  std::lock_guard<std::mutex> lock(texture_mutex());
+  auto& levels = texture_cache()[&g];
   if (levels.empty()) {
-    cv::Mat bgr = render_target_texture(g), grey, f;
+    auto it = texture_overrides().find(&g);
+    cv::Mat bgr = it != texture_overrides().end() ? it->second : render_target_texture(g);
+    cv::Mat grey, f;
     cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
     grey.convertTo(f, CV_32F);
     levels.push_back(f);
@@ -109,6 +122,47 @@ cv::Mat render_ideal_ss(const TargetGeometry& g, const Eigen::Matrix3d& K, cv::S
 }
 
 }  // namespace
+
+void set_texture_override(const TargetGeometry& g, const cv::Mat& texture_bgr) {
+  std::lock_guard<std::mutex> lock(texture_mutex());
+  texture_overrides()[&g] = texture_bgr.clone();
+  texture_cache().erase(&g);
+}
+
+namespace {
+// Texture pixel rectangle of the code square plus one texel, symmetric about the centre.
+cv::Rect code_rect(const TargetGeometry& g) {
+  const double c = platform_to_texture(g, Eigen::Vector2d::Zero()).x();  // 2047.5 for 4096
+  const int half = static_cast<int>(std::ceil(0.5 * g.code.side_m() * g.px_per_m())) + 1;
+  const int x0 = static_cast<int>(std::lround(c + 0.5)) - half;
+  return cv::Rect(x0, x0, 2 * half, 2 * half);
+}
+}  // namespace
+
+cv::Mat texture_with_rotated_code(const TargetGeometry& g) {
+  cv::Mat tex = render_target_texture(g);
+  const cv::Rect r = code_rect(g);
+  cv::Mat rotated;
+  cv::rotate(tex(r), rotated, cv::ROTATE_90_CLOCKWISE);
+  rotated.copyTo(tex(r));
+  return tex;
+}
+
+cv::Mat texture_with_inverted_cells(const TargetGeometry& g, int col0, int row0, int w) {
+  cv::Mat tex = render_target_texture(g);
+  const double half = 0.5 * g.code.side_m();
+  const Eigen::Vector2d tl = platform_to_texture(
+      g, Eigen::Vector2d(-half + col0 * g.code.cell_m, half - row0 * g.code.cell_m));
+  const Eigen::Vector2d br = platform_to_texture(
+      g, Eigen::Vector2d(-half + (col0 + w) * g.code.cell_m, half - (row0 + w) * g.code.cell_m));
+  const cv::Rect r(cv::Point(static_cast<int>(std::lround(tl.x() + 0.5)),
+                             static_cast<int>(std::lround(tl.y() + 0.5))),
+                   cv::Point(static_cast<int>(std::lround(br.x() + 0.5)),
+                             static_cast<int>(std::lround(br.y() + 0.5))));
+  cv::Mat roi = tex(r);
+  cv::bitwise_not(roi, roi);
+  return tex;
+}
 
 cv::Mat render_view(const TargetGeometry& g, const CameraModel& cam, const Eigen::Isometry3d& X_CP,
                     const SynthOptions& opt) {

@@ -36,6 +36,17 @@ struct SynthOptions {
   bool bgr{true};              ///< 3-channel output (else grey)
 };
 
+// Replaces the texture used by render_view()/render_exposure() for the target object `g`
+// (by address; e.g. a copy of default_target() whose printed code was altered). BGR 8-bit,
+// g.texture_px square.
+void set_texture_override(const TargetGeometry& g, const cv::Mat& texture_bgr);
+
+// The texture of default_target() with the code square rotated by 90 degrees about the
+// platform centre (the rings unchanged): a platform printed with a wrong code orientation.
+cv::Mat texture_with_rotated_code(const TargetGeometry& g);
+// The texture with the code cells (col0..col0+w-1, row0..row0+w-1) inverted (dark <-> light).
+cv::Mat texture_with_inverted_cells(const TargetGeometry& g, int col0, int row0, int w);
+
 // A frame of `camera` (distortion applied when the model has any) seeing the target at X_CP.
 cv::Mat render_view(const TargetGeometry& g, const CameraModel& camera,
                     const Eigen::Isometry3d& X_CP, const SynthOptions& opt = {});

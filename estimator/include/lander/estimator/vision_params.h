@@ -63,8 +63,9 @@ struct VisionParams {
   bool code_enabled{true};           ///< localise on the code map when its cells are in view
   double code_min_cell_px{8.0};      ///< smallest code cell side read (px): below ~8 px the
                                      ///< thresholded cell corners round off by a third
-  int code_threshold_block_px{101};  ///< adaptive threshold window (px), odd: about one cell
-                                     ///< at touchdown (~95 px), several cells further up
+  int code_threshold_block_px{301};  ///< adaptive threshold window (px), odd: three cells at
+                                     ///< touchdown (~100 px cells); a window near one cell
+                                     ///< leaves the inside of large dark blobs light
   double code_threshold_offset{10.0};  ///< grey levels below the local mean counted dark
   double code_min_contrast{40.0};    ///< dark/light cell class means must differ by this (grey)
   double code_max_mismatch_fraction{0.03};  ///< disagreeing read cells allowed (fraction)
