@@ -19,6 +19,12 @@ TEST(VisionParams, SaveLoadRoundTrip) {
   p.min_rings = 5;
   p.edge_samples = 64;
   p.tracking = false;
+  p.code_enabled = false;
+  p.code_min_cell_px = 10.5;
+  p.code_threshold_block_px = 151;
+  p.code_max_mismatch_fraction = 0.05;
+  p.centre_ring_pose = false;
+  p.tracked_yaw_sigma_rad = 0.1;
   const YAML::Node node = YAML::Load(yaml_to_string(params_to_yaml(p)));
   VisionParams q;
   read_params(node, "roundtrip.yaml", q);
@@ -28,6 +34,12 @@ TEST(VisionParams, SaveLoadRoundTrip) {
   EXPECT_EQ(q.adaptive_block_px, 31);
   EXPECT_EQ(q.min_rings, 5);
   EXPECT_FALSE(q.tracking);
+  EXPECT_FALSE(q.code_enabled);
+  EXPECT_EQ(q.code_min_cell_px, 10.5);
+  EXPECT_EQ(q.code_threshold_block_px, 151);
+  EXPECT_EQ(q.code_max_mismatch_fraction, 0.05);
+  EXPECT_FALSE(q.centre_ring_pose);
+  EXPECT_EQ(q.tracked_yaw_sigma_rad, 0.1);
 }
 
 TEST(VisionParams, BadValueNamesField) {
@@ -45,6 +57,11 @@ TEST(VisionParams, BadValueNamesField) {
   expect_names("rho_max: 0", "rho_max");
   expect_names("ratio_tol: -1", "ratio_tol");
   expect_names("no_such_key: 1", "no_such_key");
+  expect_names("code_threshold_block_px: 100", "code_threshold_block_px");
+  expect_names("code_min_cell_px: 2", "code_min_cell_px");
+  expect_names("code_max_mismatch_fraction: 0.5", "code_max_mismatch_fraction");
+  expect_names("code_min_corners: 3", "code_min_corners");
+  expect_names("combine_max_angle_rad: 0", "combine_max_angle_rad");
 }
 
 TEST(VisionParams, DefaultCameraFileLoadsAndMatchesDefaults) {
