@@ -8,6 +8,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include <Eigen/Cholesky>
+
 #include "estimator/support/vision_synth.h"
 #include "lander/estimator/vision_code.h"
 #include "lander/estimator/vision_detector.h"
@@ -81,6 +83,10 @@ TEST(VisionCloseRange, CodePoseMatchesTruthDownToTouchdown) {
     EXPECT_LT(test::rotation_error_rad(c.X_CP, v.X), kRotTolRad);
     EXPECT_EQ(c.placement.mismatched, 0);
     EXPECT_GE(static_cast<int>(c.corners_px.size()), p.code_min_corners);
+    // Covariance: symmetric positive definite (sigma^2 (J^T J)^-1 over many corners).
+    EXPECT_LT((c.cov - c.cov.transpose()).norm(), 1e-9 * c.cov.norm());
+    const Eigen::LLT<Eigen::Matrix<double, 6, 6>> llt(c.cov);
+    EXPECT_EQ(llt.info(), Eigen::Success);
 
     const RingDetection d = detect_ring_target(img, kCam, g, p);
     ASSERT_TRUE(d.detected) << d.reason;
