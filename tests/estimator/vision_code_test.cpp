@@ -105,5 +105,37 @@ TEST(VisionCode, CorruptedCellsGiveNoWrongPlacement) {
   }
 }
 
+// Given frames with a regular cell grid that is not the code map (a checkerboard, random
+// cells, each slightly rotated), when the code is searched, then the grid may be found but
+// no placement is accepted: no pose.
+TEST(VisionCode, ForeignGridsGiveNoPose) {
+  const TargetGeometry& g = test::default_target();
+  const VisionParams p;
+  cv::RNG rng(3);
+  for (int kind = 0; kind < 4; ++kind) {
+    const int cell = 30 + 10 * kind;
+    const int big = 2000;
+    cv::Mat canvas(big, big, CV_8UC1, cv::Scalar(235));
+    for (int r = 0; r * cell < big; ++r) {
+      for (int c = 0; c * cell < big; ++c) {
+        const bool dark = kind % 2 == 0 ? (r + c) % 2 == 0 : rng.uniform(0, 2) == 1;
+        if (dark) {
+          cv::rectangle(canvas, cv::Rect(c * cell, r * cell, cell, cell), cv::Scalar(20),
+                        cv::FILLED);
+        }
+      }
+    }
+    const cv::Mat R = cv::getRotationMatrix2D(cv::Point2f(big / 2.0f, big / 2.0f), 7.0 + 11 * kind, 1.0);
+    cv::Mat rot;
+    cv::warpAffine(canvas, rot, R, canvas.size(), cv::INTER_AREA);
+    const cv::Mat img = rot(cv::Rect((big - kCam.width_px) / 2, (big - kCam.height_px) / 2,
+                                     kCam.width_px, kCam.height_px)).clone();
+    const CodeDetection c = detect_code_pattern(img, kCam, g, p);
+    EXPECT_FALSE(c.detected) << "kind " << kind << ": " << c.reason;
+    EXPECT_FALSE(c.reason.empty());
+    std::printf("foreign grid %d: %s\n", kind, c.reason.c_str());
+  }
+}
+
 }  // namespace
 }  // namespace lander
