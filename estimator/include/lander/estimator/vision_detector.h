@@ -10,6 +10,15 @@
 //  5. initial pose by IPPE (planar PnP), then Levenberg-Marquardt (Ceres) on the conic
 //     reprojection cost eq. (14)-(15) over every identified ellipse, with a covariance;
 //  6. keyframe selection eq. (17)-(18); reprojection error eq. (30).
+// Close range (RingDetection::source says which observations gave the pose):
+//  7. the code map (seed 001, vision_code.h) is searched whenever its cells can be read
+//     (no ring pose, or a ring/tracked pose putting the 2.5 cm cells at >= code_min_cell_px);
+//  8. with fewer than min_rings sets but the central pair identified: normal, centre and
+//     depth in closed form from the pair (pole-polar of the projected centre), yaw from
+//     another identified set, else the code, else the tracked pose (as a prior), then the
+//     conic cost over every identified ellipse (plus the code corners when they agree);
+//  9. with >= min_rings sets and the code: conics and code corners refined together if the
+//     two poses agree (combine_max_*), else the ring pose alone (reason says so).
 // All image geometry after step 2 is in undistorted pixels of the pinhole K.
 #pragma once
 
