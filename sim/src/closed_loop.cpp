@@ -363,9 +363,10 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
     }
     if (sonar.due(tn)) {
       const UltrasonicSample u = sonar.sample(truth);
-      // In range only (eq. 12): outside it the reading is garbage by design.
-      if (u.range_m >= s.sensors.ultrasonic.min_range_m && u.range_m <= s.sensors.ultrasonic.max_range_m &&
-          std::isfinite(truth.range_m)) {
+      // Only while the true range is inside the sensor's range (eq. 12): outside it the
+      // reading is garbage by design, and garbage that happens to look valid is not "in range".
+      if (std::isfinite(truth.range_m) && truth.range_m >= s.sensors.ultrasonic.min_range_m &&
+          truth.range_m <= s.sensors.ultrasonic.max_range_m) {
         alt_metrics.add("ultrasonic", u.range_m * truth.X_WB.linear()(2, 2) - true_h, true_h);
       }
       sonar_q.push(u, tn + s.sensors.ultrasonic.latency_s);
