@@ -373,12 +373,14 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
                           : near                    ? L.descent_rate_near_mps
                                                     : L.descent_rate_mps;
       const double z_top = diag_.platform_W_m.z() + L.gear_height_m;  // gear on the top
-      // Final decimetres: below final_hold_height_m go down only when aligned to the touchdown
-      // criterion, and climb back to it when the error exceeds twice that (hysteresis).
+      // Final decimetres: below final_hold_height_m go on into contact only when aligned to
+      // the touchdown criterion; between it and twice it wait low (final_wait_gap_m), so the
+      // dash into contact once aligned is short (a stop-and-go cart is steady for ~2 s); climb
+      // back to final_hold_height_m when the error exceeds twice the criterion.
       const bool aligned = e_xy < L.touchdown_error_m;
       const double z_floor =
           z_top + ((aligned || h > L.final_hold_height_m) ? L.final_hover_gap_m
-                                                          : L.final_hold_height_m);
+                                                          : L.final_wait_gap_m);
       if (e_xy > 2.0 * L.touchdown_error_m) {
         recovery_z_sp_ = std::max(recovery_z_sp_, z_top + L.final_hold_height_m);
       }
@@ -413,6 +415,8 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       if (carrot.norm() > L.recovery_max_carrot_m) carrot *= L.recovery_max_carrot_m / carrot.norm();
       sp.p_W_m.head<2>() = nav.p_W_m.head<2>() + carrot;
       sp.p_W_m.z() = recovery_z_sp_;
+      // (No acceleration feed-forward: the acceleration of the fit, from fixes that carry the
+      // navigation position's GPS steps, doubled the attitude noise in the real loop.)
       sp.v_W_mps = Eigen::Vector3d(diag_.platform_v_W_mps.x(), diag_.platform_v_W_mps.y(), vz_ff);
       return sp;
     }

@@ -86,6 +86,8 @@ void LandingParams::validate() const {
   require(final_hover_gap_m >= -kMaxFinalHoverGapBelow_m && final_hover_gap_m < cut_height_m,
           "final_hover_gap_m", "must be in [-0.2, cut_height_m)");
   require(final_hold_height_m > cut_height_m, "final_hold_height_m", "must be > cut_height_m");
+  require(final_wait_gap_m > cut_height_m && final_wait_gap_m < final_hold_height_m,
+          "final_wait_gap_m", "must be in (cut_height_m, final_hold_height_m)");
   require(recovery_max_carrot_m > 0, "recovery_max_carrot_m", "must be > 0");
   require(servo_ki >= 0, "servo_ki", "must be >= 0");
   require(servo_max_correction_m >= 0, "servo_max_correction_m", "must be >= 0");

@@ -146,15 +146,21 @@ struct LandingParams {
                                           ///< below 0 (under the top) so the final descent
                                           ///< goes on into contact at ~descent_rate_final_mps
                                           ///< and the cut falls from at most cut_height_m
-  double final_hold_height_m{0.30};       ///< below this gear clearance descend only while
-                                          ///< |error| < touchdown_error_m; climb back to it
+  double final_hold_height_m{0.30};       ///< below this gear clearance descend into contact
+                                          ///< only while |error| < touchdown_error_m (else
+                                          ///< wait at final_wait_gap_m); climb back to it
                                           ///< when |error| > 2 touchdown_error_m (m)
+  double final_wait_gap_m{0.05};          ///< below final_hold_height_m with an error between
+                                          ///< touchdown_error_m and twice it: wait at this
+                                          ///< gear clearance (m)
   double recovery_max_carrot_m{0.3};      ///< visual-servo setpoint at most this far from the
                                           ///< vehicle horizontally: bounds the catch-up speed
                                           ///< (and tilt, which would swing the view off) (m)
-  double servo_ki{0.6};                   ///< integral gain of the visual servo on the
-                                          ///< horizontal error (removes tracking bias) (1/s)
-  double servo_max_correction_m{0.3};     ///< bound of that integral correction (m)
+  double servo_ki{0.2};                   ///< integral gain of the visual servo on the
+                                          ///< horizontal error (removes tracking bias) (1/s);
+                                          ///< 0.6 wound up to -0.15 m while a stop-and-go cart
+                                          ///< braked and then held the vehicle behind it
+  double servo_max_correction_m{0.15};    ///< bound of that integral correction (m)
   // touchdown (seed 000 section 3.3: < 5 cm and steady platform)
   double gear_height_m{0.25};             ///< CoM height above the surface when landed (m):
                                           ///< models/hexarotor.xml skids at -0.24 m, r 0.01 m
@@ -218,6 +224,7 @@ void visit_fields(V& v, LandingParams& p) {
   v("descent_gate_near_m", p.descent_gate_near_m);
   v("final_hover_gap_m", p.final_hover_gap_m);
   v("final_hold_height_m", p.final_hold_height_m);
+  v("final_wait_gap_m", p.final_wait_gap_m);
   v("recovery_max_carrot_m", p.recovery_max_carrot_m);
   v("servo_ki", p.servo_ki);
   v("servo_max_correction_m", p.servo_max_correction_m);
