@@ -35,6 +35,9 @@ constexpr double kAlignMinDistance_m = 1.5;
 // noise from making a velocity of metres per second. A 1 m/s cart acquired at the edge of the
 // view leaves it within ~1 s unless the follow starts at once, so this must stay small.
 constexpr int kMinFixesForFeedForward = 6;
+// In recovery the clearance setpoint stays at most this far below the current clearance (m):
+// bounds the descent speed near the top after a pause of the descent (1.5 1/s * 0.5 m).
+constexpr double kMaxClearanceStepDown_m = 0.5;
 // Gain of the observe catch-up velocity on the remaining gap near the platform (1/s): below
 // the position loop's 1.3 1/s so the follow point does not chase vision noise.
 constexpr double kFollowGain_per_s = 1.0;
@@ -140,7 +143,7 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
       break;
     }
     case Mode::kRecovery:
-      recovery_z_sp_ = nav.p_W_m.z();
+      recovery_h_sp_ = diag_.gear_clearance_m;
       servo_int_.setZero();
       break;
     case Mode::kTouchdown:
@@ -372,31 +375,31 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       const double rate = h < L.final_hold_height_m ? L.descent_rate_final_mps
                           : near                    ? L.descent_rate_near_mps
                                                     : L.descent_rate_mps;
-      const double z_top = diag_.platform_W_m.z() + L.gear_height_m;  // gear on the top
       // Final decimetres: below final_hold_height_m go on into contact only when aligned to
       // the touchdown criterion; between it and twice it wait low (final_wait_gap_m), so the
       // dash into contact once aligned is short (a stop-and-go cart is steady for ~2 s); climb
       // back to final_hold_height_m when the error exceeds twice the criterion.
       const bool aligned = e_xy < L.touchdown_error_m;
-      const double z_floor =
-          z_top + ((aligned || h > L.final_hold_height_m) ? L.final_hover_gap_m
-                                                          : L.final_wait_gap_m);
+      // The height is servoed like the horizontal position: on the gear clearance measured by
+      // vision (h_sp - h), so steps of the navigation height (baro / GPS) cancel.
+      const double h_floor = (aligned || h > L.final_hold_height_m) ? L.final_hover_gap_m
+                                                                   : L.final_wait_gap_m;
       if (e_xy > 2.0 * L.touchdown_error_m) {
-        recovery_z_sp_ = std::max(recovery_z_sp_, z_top + L.final_hold_height_m);
+        recovery_h_sp_ = std::max(recovery_h_sp_, L.final_hold_height_m);
       }
       double vz_ff = 0.0;
       const bool fresh = in_view(t_s, L.descent_stale_s);
-      if (fresh && e_xy < gate && recovery_z_sp_ > z_floor) {
-        recovery_z_sp_ -= rate * dt;
+      if (fresh && e_xy < gate && recovery_h_sp_ > h_floor) {
+        recovery_h_sp_ -= rate * dt;
         vz_ff = -rate;
       }
-      if (recovery_z_sp_ <= z_floor) {
-        recovery_z_sp_ = z_floor;
+      if (recovery_h_sp_ <= h_floor) {
+        recovery_h_sp_ = h_floor;
         vz_ff = 0.0;
       }
       // Never command the setpoint far below the vehicle (limits the descent speed near the
       // top even after a pause of the descent).
-      recovery_z_sp_ = std::max(recovery_z_sp_, nav.p_W_m.z() - 0.5);
+      recovery_h_sp_ = std::max(recovery_h_sp_, h - kMaxClearanceStepDown_m);
       // Visual-servo integral: the horizontal error between the platform and the vehicle
       // is integrated (only once roughly aligned, so the entry transient does not wind it up)
       // and added to the setpoint; it removes the bias of the lagging velocity feed-forward
@@ -414,7 +417,7 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       Eigen::Vector2d carrot = sp.p_W_m.head<2>() - nav.p_W_m.head<2>();
       if (carrot.norm() > L.recovery_max_carrot_m) carrot *= L.recovery_max_carrot_m / carrot.norm();
       sp.p_W_m.head<2>() = nav.p_W_m.head<2>() + carrot;
-      sp.p_W_m.z() = recovery_z_sp_;
+      sp.p_W_m.z() = nav.p_W_m.z() + (recovery_h_sp_ - h);
       // (No acceleration feed-forward: the acceleration of the fit, from fixes that carry the
       // navigation position's GPS steps, doubled the attitude noise in the real loop.)
       sp.v_W_mps = Eigen::Vector3d(diag_.platform_v_W_mps.x(), diag_.platform_v_W_mps.y(), vz_ff);

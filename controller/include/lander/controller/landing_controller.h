@@ -133,7 +133,7 @@ class LandingController {
   Eigen::Vector3d follow_p_{Eigen::Vector3d::Zero()};  // observe: slewed platform follow point
   Eigen::Vector2d follow_catch_v_{Eigen::Vector2d::Zero()};  // its velocity rel. to platform
   CubicTrajectory approach_;
-  double recovery_z_sp_{0.0};
+  double recovery_h_sp_{0.0};  // recovery: gear-clearance setpoint above the top (m)
   Eigen::Vector2d servo_int_{Eigen::Vector2d::Zero()};  // visual-servo integral (m)
   double cut_t_{0.0};
   double contact_accum_s_{0.0};

@@ -134,11 +134,11 @@ struct LandingParams {
   // recovery: visual servo and controlled descent (seed 000 section 3.3)
   double descent_rate_mps{0.5};           ///< descent rate high above the platform (m/s)
   double descent_rate_near_mps{0.2};      ///< descent rate below near_height_m (m/s)
-  double descent_rate_final_mps{0.2};     ///< descent rate below final_hold_height_m (m/s):
+  double descent_rate_final_mps{0.15};    ///< descent rate below final_hold_height_m (m/s):
                                           ///< the descent goes on into contact at it (see
                                           ///< final_hover_gap_m); slower needs the 5 cm
-                                          ///< alignment held longer (0.1 m/s: 70 s of retries
-                                          ///< in default.yaml)
+                                          ///< alignment held longer (0.1 m/s from 0.3 m: 70 s
+                                          ///< of retries in default.yaml; now from 0.1 m)
   double near_height_m{1.0};              ///< gear height above the top where it slows (m)
   double descent_gate_m{0.25};            ///< descend only while |horizontal error| < this (m)
   double descent_gate_near_m{0.10};       ///< the same gate below near_height_m (m)
@@ -150,9 +150,10 @@ struct LandingParams {
                                           ///< only while |error| < touchdown_error_m (else
                                           ///< wait at final_wait_gap_m); climb back to it
                                           ///< when |error| > 2 touchdown_error_m (m)
-  double final_wait_gap_m{0.05};          ///< below final_hold_height_m with an error between
+  double final_wait_gap_m{0.10};          ///< below final_hold_height_m with an error between
                                           ///< touchdown_error_m and twice it: wait at this
-                                          ///< gear clearance (m)
+                                          ///< gear clearance (m); 5 cm let a tilted skid touch
+                                          ///< the cart before the cut
   double recovery_max_carrot_m{0.3};      ///< visual-servo setpoint at most this far from the
                                           ///< vehicle horizontally: bounds the catch-up speed
                                           ///< (and tilt, which would swing the view off) (m)
