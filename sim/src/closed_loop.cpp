@@ -32,6 +32,7 @@
 #include "lander/sim/truth.h"
 #include "lander/sim/video.h"
 #include "lander/sim/wind.h"
+#include "overlay.h"
 
 namespace lander::sim {
 
@@ -42,25 +43,7 @@ double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
 
-Eigen::Vector3d rpy_of(const Eigen::Matrix3d& R) {
-  return {std::atan2(R(2, 1), R(2, 2)), std::asin(-std::clamp(R(2, 0), -1.0, 1.0)),
-          std::atan2(R(1, 0), R(0, 0))};
-}
-
 double wrap_pi(double a) { return std::atan2(std::sin(a), std::cos(a)); }
-
-void put_text(cv::Mat& img, const std::string& text, int line) {
-  const cv::Point org(10, 22 + 20 * line);
-  cv::putText(img, text, org, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
-  cv::putText(img, text, org, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1,
-              cv::LINE_AA);
-}
-
-std::string fmt(const char* f, double a = 0, double b = 0, double c = 0, double d = 0) {
-  char buf[160];
-  std::snprintf(buf, sizeof(buf), f, a, b, c, d);
-  return buf;
-}
 
 // Draws the detector's view on a (downscaled) camera frame.
 void draw_detection(cv::Mat& img, const RingDetection& det, double scale) {
@@ -275,23 +258,16 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
           if (s.video.overlays) {
             draw_detection(small, det, static_cast<double>(vw) / cam.width_px);
             const AltitudeEstimate a = fusion.estimate();
-            put_text(small, fmt("t %.2f s   mode %s", t_mid) + ctl::to_string(controller.mode()), 0);
+            put_text(small, fmt("t %.2f s   mode ", t_mid) + ctl::to_string(controller.mode()), 0);
             put_text(small, fmt("fused height above surface %.2f m   z %.2f m", a.h_surface_m, a.z_W_m), 1);
-            put_text(small, det.detected ? fmt("rings %.0f  reproj %.2f px  rho %.4f%s", det.centres.size(), det.reproj_err_px, det.rho) +
+            put_text(small, det.detected ? fmt("rings %.0f  reproj %.2f px  rho %.4f", det.centres.size(), det.reproj_err_px, det.rho) +
                                                (det.keyframe ? "" : "  (not a keyframe)")
                                          : std::string("no target: ") + to_string(det.status), 2);
           }
           cam_video->write(small);
           cv::Mat chase;
-          mjvCamera cc;
-          mjv_defaultCamera(&cc);
-          cc.type = mjCAMERA_FREE;
-          const Eigen::Vector3d p = world.X_WB().translation();
-          for (int i = 0; i < 3; ++i) cc.lookat[i] = p[i];
-          cc.distance = s.video.chase_distance_m;
-          cc.elevation = -30;
-          cc.azimuth = 200;
-          renderer.render_free(m, d, cc, s.video.chase_width_px, s.video.chase_height_px, chase);
+          renderer.render_free(m, d, chase_camera(world, s.video), s.video.chase_width_px,
+                               s.video.chase_height_px, chase);
           if (s.video.overlays) {
             put_text(chase, fmt("t %.2f s  mode ", t_mid) + ctl::to_string(controller.mode()), 0);
           }

@@ -12,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "lander/sim/loop.h"
+#include "overlay.h"
 #include "lander/sim/renderer.h"
 #include "lander/sim/video.h"
 #include "lander/sim/world.h"
@@ -66,39 +67,6 @@ class TraceWriter {
   std::ofstream f_;
   std::size_t n_;
 };
-
-Eigen::Vector3d rpy_of(const Eigen::Matrix3d& R) {
-  // ZYX (yaw-pitch-roll) angles of R = Rz(yaw) Ry(pitch) Rx(roll).
-  return {std::atan2(R(2, 1), R(2, 2)), std::asin(-std::clamp(R(2, 0), -1.0, 1.0)),
-          std::atan2(R(1, 0), R(0, 0))};
-}
-
-// A chase camera that follows the vehicle from behind and above (a free camera whose look-at
-// point is the vehicle, so the vehicle stays at the centre of the view).
-mjvCamera chase_camera(const World& w, const VideoParams& vp) {
-  mjvCamera cam;
-  mjv_defaultCamera(&cam);
-  cam.type = mjCAMERA_FREE;
-  const Eigen::Vector3d p = w.X_WB().translation();
-  for (int i = 0; i < 3; ++i) cam.lookat[i] = p[i];
-  cam.distance = vp.chase_distance_m;
-  cam.elevation = -30;
-  cam.azimuth = 200;
-  return cam;
-}
-
-void put_text(cv::Mat& img, const std::string& text, int line) {
-  const cv::Point org(10, 24 + 22 * line);
-  cv::putText(img, text, org, cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
-  cv::putText(img, text, org, cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(255, 255, 255), 1,
-              cv::LINE_AA);
-}
-
-std::string fmt(const char* f, double a, double b = 0, double c = 0) {
-  char buf[128];
-  std::snprintf(buf, sizeof(buf), f, a, b, c);
-  return buf;
-}
 
 // Scripted flight: the vehicle follows the waypoints, the cart its path; every camera frame
 // is rendered (with blur from the scripted motion when blur_samples > 1).

@@ -50,4 +50,20 @@ TEST(CliRun, ShortScriptedFlightWritesItsOutputsDeterministically) {
   EXPECT_EQ(resolved.duration_s, 1.5);
 }
 
+TEST(CliRun, ClosedLoopWithVideoWritesBothVideosAndASummary) {
+  char tmpl[] = "/tmp/lander_video_XXXXXX";
+  const std::string dir = mkdtemp(tmpl);
+  std::string text = slurp(std::string(LANDER_SCENARIOS_DIR) + "/default.yaml");
+  text.replace(text.find("duration_s: 90"), 14, "duration_s: 1.0");
+  std::ofstream(dir + "/s.yaml") << text;
+  // One simulated second cannot land: exit code 1 (did not land), outputs complete.
+  EXPECT_EQ(run_lander("run " + dir + "/s.yaml --out " + dir + "/v --video --quiet"), 1);
+  const std::string summary = slurp(dir + "/v/summary.json");
+  EXPECT_NE(summary.find("\"outcome\": \"timeout\""), std::string::npos) << summary;
+  EXPECT_NE(summary.find("\"frames\": 30"), std::string::npos) << summary;
+  for (const char* f : {"camera.mp4", "chase.mp4"}) {
+    EXPECT_GT(slurp(dir + "/v/" + f).size(), 10000u) << f;  // 30 frames of H.264, not a header
+  }
+}
+
 }  // namespace

@@ -1,0 +1,53 @@
+// Small helpers shared by the scripted and closed-loop runs (private to sim/): video overlay
+// text, printf-style formatting, roll-pitch-yaw for traces, the chase camera.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include <Eigen/Core>
+#include <mujoco/mujoco.h>
+#include <opencv2/imgproc.hpp>
+
+#include "lander/sim/scenario.h"
+#include "lander/sim/world.h"
+
+namespace lander::sim {
+
+// ZYX angles (roll, pitch, yaw) of R = Rz(yaw) Ry(pitch) Rx(roll).
+inline Eigen::Vector3d rpy_of(const Eigen::Matrix3d& R) {
+  return {std::atan2(R(2, 1), R(2, 2)), std::asin(-std::clamp(R(2, 0), -1.0, 1.0)),
+          std::atan2(R(1, 0), R(0, 0))};
+}
+
+// White text with a dark outline on line `line` of a video frame.
+inline void put_text(cv::Mat& img, const std::string& text, int line) {
+  const cv::Point org(10, 22 + 20 * line);
+  cv::putText(img, text, org, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
+  cv::putText(img, text, org, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1,
+              cv::LINE_AA);
+}
+
+inline std::string fmt(const char* f, double a = 0, double b = 0, double c = 0, double d = 0) {
+  char buf[160];
+  std::snprintf(buf, sizeof(buf), f, a, b, c, d);
+  return buf;
+}
+
+// A chase camera behind and above the vehicle: a free camera whose look-at point is the
+// vehicle, so the vehicle stays at the centre of the view.
+inline mjvCamera chase_camera(const World& w, const VideoParams& vp) {
+  mjvCamera cam;
+  mjv_defaultCamera(&cam);
+  cam.type = mjCAMERA_FREE;
+  const Eigen::Vector3d p = w.X_WB().translation();
+  for (int i = 0; i < 3; ++i) cam.lookat[i] = p[i];
+  cam.distance = vp.chase_distance_m;
+  cam.elevation = -30;
+  cam.azimuth = 200;
+  return cam;
+}
+
+}  // namespace lander::sim
