@@ -58,6 +58,16 @@ struct GlContext::Impl {
   std::string try_osmesa(int width, int height);
   void query_renderer();
   void release();
+  // Address of a GL entry point through the backend's *GetProcAddress.
+  void* proc(const char* name) const {
+    if (backend == GlBackend::Egl) {
+      auto getProc = sym<PFNEGLGETPROCADDRESSPROC>(lib, "eglGetProcAddress");
+      return getProc ? reinterpret_cast<void*>(getProc(name)) : nullptr;
+    }
+    using OsGetProc = void* (*)(const char*);
+    auto getProc = sym<OsGetProc>(lib, "OSMesaGetProcAddress");
+    return getProc ? getProc(name) : nullptr;
+  }
 };
 
 // EGL on Mesa's surfaceless platform: no window system, no pbuffer; MuJoCo renders into its
@@ -129,13 +139,7 @@ std::string GlContext::Impl::try_osmesa(int width, int height) {
 
 void GlContext::Impl::query_renderer() {
   using GetString = const unsigned char* (*)(unsigned int);
-  GetString getString = nullptr;
-  if (backend == GlBackend::Egl) {
-    auto getProc = sym<PFNEGLGETPROCADDRESSPROC>(lib, "eglGetProcAddress");
-    getString = reinterpret_cast<GetString>(getProc("glGetString"));
-  } else {
-    getString = sym<GetString>(lib, "glGetString");
-  }
+  auto getString = reinterpret_cast<GetString>(proc("glGetString"));
   const unsigned char* r = getString ? getString(0x1F01 /* GL_RENDERER */) : nullptr;
   renderer = r ? reinterpret_cast<const char*>(r) : "unknown renderer";
 }
@@ -189,15 +193,6 @@ GlContext::~GlContext() {
 
 GlBackend GlContext::backend() const { return impl_->backend; }
 
-void* GlContext::proc(const char* name) const {
-  if (impl_->backend == GlBackend::Egl) {
-    auto getProc = sym<PFNEGLGETPROCADDRESSPROC>(impl_->lib, "eglGetProcAddress");
-    return getProc ? reinterpret_cast<void*>(getProc(name)) : nullptr;
-  }
-  using OsGetProc = void* (*)(const char*);
-  auto getProc = sym<OsGetProc>(impl_->lib, "OSMesaGetProcAddress");
-  return getProc ? getProc(name) : nullptr;
-}
 
 std::string GlContext::description() const {
   return to_string(impl_->backend) + " (" + impl_->renderer + ")";

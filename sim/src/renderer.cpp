@@ -8,20 +8,11 @@ Renderer::Renderer(const mjModel* m, const RenderParams& params) : params_(param
   params.validate();
   gl_ = std::make_unique<GlContext>(parse_gl_backend(params.backend),
                                     m->vis.global.offwidth, m->vis.global.offheight);
-  // MSAA is a property of MuJoCo's offscreen buffer, read from the model at context creation.
-  mjModel* mm = const_cast<mjModel*>(m);
-  const int saved_samples = mm->vis.quality.offsamples;
-  mm->vis.quality.offsamples = params.msaa_samples;
   mjv_defaultScene(&scene_);
   mjv_defaultOption(&option_);
-  mjr_defaultContext(&context_);
   mjv_makeScene(m, &scene_, 2000);
-  mjr_makeContext(m, &context_, mjFONTSCALE_100);
-  mm->vis.quality.offsamples = saved_samples;
-  mjr_setBuffer(mjFB_OFFSCREEN, &context_);
-  if (context_.currentBuffer != mjFB_OFFSCREEN) {
-    throw GlError("offscreen framebuffer not supported by " + gl_->description());
-  }
+  mjr_defaultContext(&context_);
+  make_context(m);
   scene_.flags[mjRND_SHADOW] = params.shadows ? 1 : 0;
   scene_.flags[mjRND_SKYBOX] = 1;
   // Sites and joint markers are not part of the camera's world.
@@ -38,14 +29,22 @@ void Renderer::upload_texture(const mjModel* m, int tex_id) {
   // still sample the old texture), so rebuild the rendering context: every texture is
   // uploaded with fresh mipmaps. Costs about a second; textures change rarely.
   (void)tex_id;
+  mjr_freeContext(&context_);
+  mjr_defaultContext(&context_);
+  make_context(m);
+}
+
+void Renderer::make_context(const mjModel* m) {
+  // MSAA is a property of MuJoCo's offscreen buffer, read from the model at context creation.
   mjModel* mm = const_cast<mjModel*>(m);
   const int saved_samples = mm->vis.quality.offsamples;
   mm->vis.quality.offsamples = params_.msaa_samples;
-  mjr_freeContext(&context_);
-  mjr_defaultContext(&context_);
   mjr_makeContext(m, &context_, mjFONTSCALE_100);
   mm->vis.quality.offsamples = saved_samples;
   mjr_setBuffer(mjFB_OFFSCREEN, &context_);
+  if (context_.currentBuffer != mjFB_OFFSCREEN) {
+    throw GlError("offscreen framebuffer not supported by " + gl_->description());
+  }
 }
 
 void Renderer::render_camera(const mjModel* m, mjData* d, int cam_id, int width, int height,

@@ -2,31 +2,20 @@
 // loads back to the same scenario, and the same seed gives the same files.
 #include <gtest/gtest.h>
 
-#include <sys/wait.h>
-
-#include <cstdlib>
 #include <fstream>
-#include <sstream>
 
 #include "lander/sim/scenario.h"
+#include "tools/support/cli.h"
 
 namespace {
 
-std::string slurp(const std::string& path) {
-  std::ifstream f(path);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
+using lander::test::slurp;
 
-int run_lander(const std::string& args) {
-  const int status = std::system((std::string(LANDER_BINARY) + " " + args + " > /dev/null 2>&1").c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
+// Exit code of `lander ARGS` (its output is only needed when a check fails).
+int run_lander(const std::string& args) { return lander::test::run_lander(args).code; }
 
 TEST(CliRun, ShortScriptedFlightWritesItsOutputsDeterministically) {
-  char tmpl[] = "/tmp/lander_run_XXXXXX";
-  const std::string dir = mkdtemp(tmpl);
+  const std::string dir = lander::test::make_temp_dir("lander_run");
   // The flyover, cut to 1.5 s.
   std::ofstream(dir + "/s.yaml") << slurp(std::string(LANDER_SCENARIOS_DIR) + "/flyover.yaml")
                                  << "\n";
@@ -52,8 +41,7 @@ TEST(CliRun, ShortScriptedFlightWritesItsOutputsDeterministically) {
 }
 
 TEST(CliRun, ClosedLoopRunsWithTheSameSeedGiveIdenticalOutputs) {
-  char tmpl[] = "/tmp/lander_det_XXXXXX";
-  const std::string dir = mkdtemp(tmpl);
+  const std::string dir = lander::test::make_temp_dir("lander_det");
   std::string text = slurp(std::string(LANDER_SCENARIOS_DIR) + "/default.yaml");
   text.replace(text.find("duration_s: 90"), 14, "duration_s: 2.0");
   std::ofstream(dir + "/s.yaml") << text;
@@ -67,8 +55,7 @@ TEST(CliRun, ClosedLoopRunsWithTheSameSeedGiveIdenticalOutputs) {
 }
 
 TEST(CliRun, ClosedLoopWithVideoWritesBothVideosAndASummary) {
-  char tmpl[] = "/tmp/lander_video_XXXXXX";
-  const std::string dir = mkdtemp(tmpl);
+  const std::string dir = lander::test::make_temp_dir("lander_video");
   std::string text = slurp(std::string(LANDER_SCENARIOS_DIR) + "/default.yaml");
   text.replace(text.find("duration_s: 90"), 14, "duration_s: 1.0");
   std::ofstream(dir + "/s.yaml") << text;

@@ -2,40 +2,23 @@
 // 2, and no partial output.
 #include <gtest/gtest.h>
 
-#include <sys/stat.h>
-#include <sys/wait.h>
+#include "tools/support/cli.h"
 
-#include <array>
-#include <cstdio>
+#include <sys/stat.h>
+
 #include <fstream>
 #include <string>
 
 namespace {
 
-struct Result {
-  int code;
-  std::string output;  // stdout + stderr
-};
-
-Result run(const std::string& args) {
-  const std::string cmd = std::string(LANDER_BINARY) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  std::string out;
-  std::array<char, 4096> buf;
-  while (std::size_t n = std::fread(buf.data(), 1, buf.size(), p)) out.append(buf.data(), n);
-  const int status = pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
+using lander::test::run_lander;
 
 bool exists(const std::string& p) {
   struct stat st;
   return stat(p.c_str(), &st) == 0;
 }
 
-std::string temp_dir() {
-  char tmpl[] = "/tmp/lander_cli_XXXXXX";
-  return mkdtemp(tmpl);
-}
+std::string temp_dir() { return lander::test::make_temp_dir("lander_cli"); }
 
 std::string write_file(const std::string& dir, const std::string& name, const std::string& text) {
   const std::string path = dir + "/" + name;
@@ -44,20 +27,20 @@ std::string write_file(const std::string& dir, const std::string& name, const st
 }
 
 TEST(Cli, NoArgumentsPrintsUsageAndFails) {
-  const Result r = run("");
+  const auto r = run_lander("");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("usage"), std::string::npos) << r.output;
 }
 
 TEST(Cli, UnknownCommandIsNamed) {
-  const Result r = run("fly-to-the-moon");
+  const auto r = run_lander("fly-to-the-moon");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("fly-to-the-moon"), std::string::npos) << r.output;
 }
 
 TEST(Cli, MissingScenarioFileIsNamedAndNothingIsWritten) {
   const std::string dir = temp_dir();
-  const Result r = run("run " + dir + "/nope.yaml --out " + dir + "/out");
+  const auto r = run_lander("run " + dir + "/nope.yaml --out " + dir + "/out");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("nope.yaml"), std::string::npos) << r.output;
   EXPECT_FALSE(exists(dir + "/out"));
@@ -70,7 +53,7 @@ TEST(Cli, UnknownKeyIsRejectedWithFileLineAndKey) {
                                       "camera:\n"
                                       "  rate_hz: 30\n"
                                       "  exposure_msec: 3\n");
-  const Result r = run("run " + yaml + " --out " + dir + "/out");
+  const auto r = run_lander("run " + yaml + " --out " + dir + "/out");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("s.yaml:4"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("camera.exposure_msec"), std::string::npos) << r.output;
@@ -80,7 +63,7 @@ TEST(Cli, UnknownKeyIsRejectedWithFileLineAndKey) {
 TEST(Cli, BadValueNamesTheKey) {
   const std::string dir = temp_dir();
   const std::string yaml = write_file(dir, "s.yaml", "camera:\n  exposure_ms: -3\n");
-  const Result r = run("run " + yaml + " --out " + dir + "/out");
+  const auto r = run_lander("run " + yaml + " --out " + dir + "/out");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("camera.exposure_ms"), std::string::npos) << r.output;
   EXPECT_FALSE(exists(dir + "/out"));
@@ -89,7 +72,7 @@ TEST(Cli, BadValueNamesTheKey) {
 TEST(Cli, WrongTypeNamesTheKeyAndLine) {
   const std::string dir = temp_dir();
   const std::string yaml = write_file(dir, "s.yaml", "seed: 1\nduration_s: forever\n");
-  const Result r = run("run " + yaml + " --out " + dir + "/out");
+  const auto r = run_lander("run " + yaml + " --out " + dir + "/out");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("s.yaml:2"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("duration_s"), std::string::npos) << r.output;
@@ -98,7 +81,7 @@ TEST(Cli, WrongTypeNamesTheKeyAndLine) {
 TEST(Cli, YamlSyntaxErrorNamesTheLine) {
   const std::string dir = temp_dir();
   const std::string yaml = write_file(dir, "s.yaml", "name: t\ncamera: [1, 2\n");
-  const Result r = run("run " + yaml + " --out " + dir + "/out");
+  const auto r = run_lander("run " + yaml + " --out " + dir + "/out");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("s.yaml:"), std::string::npos) << r.output;
   EXPECT_FALSE(exists(dir + "/out"));
@@ -107,7 +90,7 @@ TEST(Cli, YamlSyntaxErrorNamesTheLine) {
 TEST(Cli, MissingModelFileIsNamedAndNothingIsWritten) {
   const std::string dir = temp_dir();
   const std::string yaml = write_file(dir, "s.yaml", "world:\n  model: /no/such/world.xml\n");
-  const Result r = run("run " + yaml + " --out " + dir + "/out");
+  const auto r = run_lander("run " + yaml + " --out " + dir + "/out");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("/no/such/world.xml"), std::string::npos) << r.output;
   EXPECT_FALSE(exists(dir + "/out"));
@@ -117,20 +100,20 @@ TEST(Cli, UnreadableModelIsReportedAndNothingIsWritten) {
   const std::string dir = temp_dir();
   const std::string model = write_file(dir, "broken.xml", "<mujoco><worldbody><body></mujoco>");
   const std::string yaml = write_file(dir, "s.yaml", "world:\n  model: " + model + "\n");
-  const Result r = run("run " + yaml + " --out " + dir + "/out");
+  const auto r = run_lander("run " + yaml + " --out " + dir + "/out");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("broken.xml"), std::string::npos) << r.output;
   EXPECT_FALSE(exists(dir + "/out"));
 }
 
 TEST(Cli, MissingOutOptionIsAUsageError) {
-  const Result r = run("run " + std::string(LANDER_SCENARIOS_DIR) + "/flyover.yaml");
+  const auto r = run_lander("run " + std::string(LANDER_SCENARIOS_DIR) + "/flyover.yaml");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("--out"), std::string::npos) << r.output;
 }
 
 TEST(Cli, UnknownOptionIsNamed) {
-  const Result r = run("run " + std::string(LANDER_SCENARIOS_DIR) + "/flyover.yaml --out /tmp/x --fast");
+  const auto r = run_lander("run " + std::string(LANDER_SCENARIOS_DIR) + "/flyover.yaml --out /tmp/x --fast");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("--fast"), std::string::npos) << r.output;
 }

@@ -16,31 +16,16 @@
 #include <opencv2/imgproc.hpp>
 
 #include "lander/estimator/target.h"
+#include "tools/support/cli.h"
 #include "lander/estimator/types.h"
 #include "lander/estimator/vision_conic.h"
 
 namespace lander {
 namespace {
 
-struct Result {
-  int code;
-  std::string output;  // stdout + stderr
-};
+using lander::test::run_lander;
 
-Result run(const std::string& args) {
-  const std::string cmd = std::string(LANDER_BINARY) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  std::string out;
-  std::array<char, 4096> buf;
-  while (std::size_t n = std::fread(buf.data(), 1, buf.size(), p)) out.append(buf.data(), n);
-  const int status = pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
-
-std::string temp_dir() {
-  char tmpl[] = "/tmp/lander_detect_XXXXXX";
-  return mkdtemp(tmpl);
-}
+std::string temp_dir() { return lander::test::make_temp_dir("lander_detect"); }
 
 const std::string kCamera = LANDER_MODELS_DIR "/camera_default.yaml";
 
@@ -108,7 +93,7 @@ TEST(DetectCli, SyntheticCloseRangePngGivesItsPose) {
   const std::string dir = temp_dir();
   const std::string png = dir + "/close.png";
   ASSERT_TRUE(cv::imwrite(png, render(g, cam, X)));
-  const Result r = run("detect " + png + " --camera " + kCamera + " --json");
+  const auto r = run_lander("detect " + png + " --camera " + kCamera + " --json");
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_NE(r.output.find("\"detected\": true"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("\"source\": \"code\""), std::string::npos) << r.output;
@@ -123,7 +108,7 @@ TEST(DetectCli, SyntheticCloseRangePngGivesItsPose) {
 
 TEST(DetectCli, MissingImageIsNamedWithExitCode2) {
   const std::string dir = temp_dir();
-  const Result r = run("detect " + dir + "/nope.png --camera " + kCamera + " --json");
+  const auto r = run_lander("detect " + dir + "/nope.png --camera " + kCamera + " --json");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("nope.png"), std::string::npos) << r.output;
   EXPECT_EQ(r.output.find("\"detected\""), std::string::npos) << "no partial output";
@@ -133,7 +118,7 @@ TEST(DetectCli, WrongSizeImageIsRefusedWithExitCode2) {
   const std::string dir = temp_dir();
   const std::string png = dir + "/small.png";
   ASSERT_TRUE(cv::imwrite(png, cv::Mat(360, 640, CV_8UC3, cv::Scalar::all(128))));
-  const Result r = run("detect " + png + " --camera " + kCamera + " --json");
+  const auto r = run_lander("detect " + png + " --camera " + kCamera + " --json");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("640x360"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("1280x720"), std::string::npos) << r.output;

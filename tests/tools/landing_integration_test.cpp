@@ -11,6 +11,8 @@
 #include <sstream>
 #include <vector>
 
+#include "tools/support/cli.h"
+
 namespace {
 
 // DESIGN/issue 5: static platform landings must touch down within 5 cm of the centre.
@@ -19,12 +21,7 @@ constexpr double kTouchdownOffsetTolM = 0.05;
 // contact; 3 cm more than the touchdown tolerance.
 constexpr double kRestOffsetTolM = 0.08;
 
-std::string slurp(const std::string& path) {
-  std::ifstream f(path);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
+using lander::test::slurp;
 
 double json_number(const std::string& json, const std::string& key) {
   const auto pos = json.find("\"" + key + "\": ");
@@ -33,8 +30,7 @@ double json_number(const std::string& json, const std::string& key) {
 }
 
 TEST(LandingIntegration, ShortLandingOnTheStaticPlatformTouchesDownAtTheCentre) {
-  char tmpl[] = "/tmp/lander_land_XXXXXX";
-  const std::string dir = mkdtemp(tmpl);
+  const std::string dir = lander::test::make_temp_dir("lander_land");
   std::ofstream(dir + "/s.yaml") << "name: short_static_landing\n"
                                     "seed: 11\n"
                                     "duration_s: 60\n"

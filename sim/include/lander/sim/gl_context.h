@@ -32,8 +32,6 @@ class GlContext {
 
   GlBackend backend() const;
   std::string description() const;  // backend plus GL_RENDERER string
-  // Address of a GL entry point of this context's backend (nullptr if absent).
-  void* proc(const char* name) const;
 
  private:
   struct Impl;

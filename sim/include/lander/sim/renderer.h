@@ -54,6 +54,8 @@ class Renderer {
 
  private:
   void render(const mjModel* m, mjData* d, mjvCamera& cam, int width, int height, cv::Mat& bgr);
+  // Creates MuJoCo's GL context (uploads every texture) with the configured MSAA.
+  void make_context(const mjModel* m);
 
   std::unique_ptr<GlContext> gl_;
   RenderParams params_;
