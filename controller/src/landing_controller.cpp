@@ -30,8 +30,17 @@ constexpr double kGoAroundReachedBand_m = 0.3;
 // Below this horizontal distance the bearing to the platform is dominated by vision noise and
 // the platform is near the image centre anyway: the heading is no longer aligned (m).
 constexpr double kAlignMinDistance_m = 1.5;
-// Fixes (~0.5 s at 30 Hz) before the platform velocity is fed forward in observe.
-constexpr int kMinFixesForFeedForward = 15;
+// Fixes before the platform velocity is fed forward in observe: the local fit needs 3, and 6
+// (0.2 s at 30 Hz, the quadratic of PlatformTracker::velocity) keep a few centimetres of
+// noise from making a velocity of metres per second. A 1 m/s cart acquired at the edge of the
+// view leaves it within ~1 s unless the follow starts at once, so this must stay small.
+constexpr int kMinFixesForFeedForward = 6;
+// In recovery the clearance setpoint stays at most this far below the current clearance (m):
+// bounds the descent speed near the top after a pause of the descent (1.5 1/s * 0.5 m).
+constexpr double kMaxClearanceStepDown_m = 0.5;
+// Gain of the observe catch-up velocity on the remaining gap near the platform (1/s): below
+// the position loop's 1.3 1/s so the follow point does not chase vision noise.
+constexpr double kFollowGain_per_s = 1.0;
 
 }  // namespace
 
@@ -68,6 +77,23 @@ double LandingController::platform_z() const {
   return tracker_.has_fix() ? tracker_.latest().p_W_m.z() : 0.0;
 }
 
+bool LandingController::follow_prediction(double t_s, Setpoint* sp) {
+  const LandingParams& L = p_.landing;
+  if (!tracker_.has_fix()) return false;
+  if (t_s - tracker_.latest().t_s > L.search_predict_max_s) {
+    // Too old to predict from: forget it and hold where the last prediction led.
+    tracker_.clear();
+    search_t0_ = t_s;
+    search_yaw0_ = yaw_hold_;
+    return false;
+  }
+  const Eigen::Vector3d pred = tracker_.predict(t_s);
+  hold_p_.head<2>() = pred.head<2>();
+  sp->p_W_m.head<2>() = pred.head<2>();
+  sp->v_W_mps.head<2>() = tracker_.velocity().head<2>();
+  return true;
+}
+
 Setpoint LandingController::hold(const Eigen::Vector3d& p) const {
   Setpoint sp;
   sp.p_W_m = p;
@@ -84,7 +110,8 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
     case Mode::kSearch: {
       search_t0_ = t_s;
       search_yaw0_ = yaw_hold_;
-      tracker_.clear();  // a lost target starts a fresh history when re-acquired
+      // The history is kept: search flies to its prediction of the platform (see
+      // search_predict_max_s) and a re-acquisition continues it.
       hold_p_ = nav.p_W_m;
       double z_min = L.search_min_height_m;
       if (altitude_.valid) z_min = nav.p_W_m.z() + (L.search_min_height_m - altitude_.h_surface_m);
@@ -93,6 +120,17 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
     }
     case Mode::kObserve:
       follow_p_ = nav.p_W_m;
+      // Start the follow point with the vehicle's own velocity relative to the platform
+      // estimate (zero without one): no jump in the velocity feed-forward.
+      follow_catch_v_ = nav.v_W_mps.head<2>() -
+                        (tracker_.num_fixes() >= kMinFixesForFeedForward
+                             ? Eigen::Vector2d(tracker_.velocity().head<2>())
+                             : Eigen::Vector2d::Zero());
+      // ... bounded by the catch-up speed (a fast entry is braked by the follow, not carried
+      // on).
+      if (follow_catch_v_.norm() > L.observe_follow_max_speed_mps) {
+        follow_catch_v_ *= L.observe_follow_max_speed_mps / follow_catch_v_.norm();
+      }
       hold_p_ = nav.p_W_m;  // observe height: where the target was acquired
       break;
     case Mode::kApproach: {
@@ -110,7 +148,7 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
       break;
     }
     case Mode::kRecovery:
-      recovery_z_sp_ = nav.p_W_m.z();
+      recovery_h_sp_ = diag_.gear_clearance_m;
       servo_int_.setZero();
       break;
     case Mode::kTouchdown:
@@ -124,7 +162,8 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
     case Mode::kGoAround:
       hold_p_ = nav.p_W_m;
       hold_p_.z() = std::max(nav.p_W_m.z(), platform_z() + L.go_around_height_m);
-      tracker_.clear();  // the failed attempt's history is not trusted
+      // The history is kept: the climb follows the predicted platform horizontally so the
+      // moving cart stays below (the fixes are measurements; only the plan failed).
       if (mode_ == Mode::kTouchdown) cascade_.reset();  // motors restart from idle
       break;
   }
@@ -162,7 +201,7 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
   diag_.platform_known = tracker_.has_fix();
   if (tracker_.has_fix()) {
     // The platform now, from the relative vector (navigation drift cancels), in W.
-    diag_.platform_W_m = nav.p_W_m + tracker_.relative_now(t_s, nav);
+    diag_.platform_W_m = nav.p_W_m + tracker_.relative_now(t_s);
     diag_.platform_v_W_mps = tracker_.velocity();
     diag_.horizontal_error_m = horizontal(diag_.platform_W_m - nav.p_W_m);
     diag_.gear_clearance_m = nav.p_W_m.z() - diag_.platform_W_m.z() - L.gear_height_m;
@@ -177,8 +216,13 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
                   nav);
         return run_mode_machine(t_s, nav);
       }
-      // Heading sweep: the 1280 px image axis is along body y, so turning the vehicle scans
-      // a circle of radius ~h tan(45 deg) instead of the 29 deg half-angle along body x.
+      // After a loss: fly to where the tracker predicts the platform (its last velocity
+      // carried on), heading held, instead of holding while the cart drives away.
+      Setpoint sp = hold(hold_p_);
+      if (follow_prediction(t_s, &sp)) return sp;
+      // Nothing to predict from: heading sweep. The 1280 px image axis is along body y, so
+      // turning the vehicle scans a circle of radius ~h tan(45 deg) instead of the 29 deg
+      // half-angle along body x.
       yaw_hold_ = std::remainder(
           search_yaw0_ + L.search_yaw_rate_degps * M_PI / 180.0 * (t_s - search_t0_), 2 * M_PI);
       return hold(hold_p_);
@@ -190,27 +234,45 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
                   nav);
         return hold(hold_p_);
       }
-      if (tracker_.num_fixes() >= L.observe_frames) {
+      if (tracker_.total_fixes() >= L.observe_frames) {
         switch_to(t_s, Mode::kApproach,
-                  fmt("%d keyframes observed (>= %d)", tracker_.num_fixes(), L.observe_frames),
+                  fmt("%d keyframes observed (>= %d)", tracker_.total_fixes(), L.observe_frames),
                   nav);
         return run_mode_machine(t_s, nav);
       }
       // Follow the platform horizontally at the observe height to keep it centred: the
-      // follow point slews towards the platform at a bounded speed (no setpoint jumps).
+      // follow point moves with the platform's velocity (fed forward) and closes the rest of
+      // the gap at a bounded catch-up speed on top (no setpoint jumps). Between detections
+      // position_now() carries the last fix on with that velocity.
       Setpoint sp = hold(hold_p_);
       if (tracker_.has_fix()) {
         const Eigen::Vector3d target = tracker_.position_now(t_s);
-        Eigen::Vector2d d = target.head<2>() - follow_p_.head<2>();
-        const double max_step = L.observe_follow_max_speed_mps * dt;
-        if (d.norm() > max_step) d *= max_step / d.norm();
-        follow_p_.head<2>() += d;
-        sp.p_W_m.head<2>() = follow_p_.head<2>();
         // Velocity feed-forward only once the fit has enough fixes (far away, a few noisy
         // fixes make a velocity of metres per second out of centimetres of noise).
+        Eigen::Vector2d v_plat = Eigen::Vector2d::Zero();
         if (tracker_.num_fixes() >= kMinFixesForFeedForward) {
-          sp.v_W_mps.head<2>() = tracker_.velocity().head<2>();
+          v_plat = tracker_.velocity().head<2>();
         }
+        // Catch-up velocity relative to the platform: proportional near it, bounded by the
+        // speed that can still stop within the gap at the follow acceleration, and by the
+        // catch-up speed. Its changes are acceleration-limited: accelerating tilts the camera
+        // (fixed under the body) away from a platform ahead, and a hard start loses it.
+        const Eigen::Vector2d gap = target.head<2>() - follow_p_.head<2>();
+        const double g = gap.norm();
+        Eigen::Vector2d catch_want = Eigen::Vector2d::Zero();
+        if (g > 1e-9) {
+          const double speed =
+              std::min({L.observe_follow_max_speed_mps, kFollowGain_per_s * g,
+                        std::sqrt(2.0 * L.observe_follow_max_accel_mps2 * g)});
+          catch_want = gap * (speed / g);
+        }
+        Eigen::Vector2d dv = catch_want - follow_catch_v_;
+        const double max_dv = L.observe_follow_max_accel_mps2 * dt;
+        if (dv.norm() > max_dv) dv *= max_dv / dv.norm();
+        follow_catch_v_ += dv;
+        follow_p_.head<2>() += (v_plat + follow_catch_v_) * dt;
+        sp.p_W_m.head<2>() = follow_p_.head<2>();
+        sp.v_W_mps.head<2>() = v_plat + follow_catch_v_;
         // Turn the wide image axis (body y) towards the platform while it is off to the side,
         // so an acquisition near the image corner does not lose it again.
         const Eigen::Vector2d to_plat = target.head<2>() - nav.p_W_m.head<2>();
@@ -314,30 +376,35 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       // descend at the controlled rate only while the horizontal error is small.
       const bool near = h < L.near_height_m;
       const double gate = near ? L.descent_gate_near_m : L.descent_gate_m;
-      const double rate = near ? L.descent_rate_near_mps : L.descent_rate_mps;
-      const double z_top = diag_.platform_W_m.z() + L.gear_height_m;  // gear on the top
-      // Final decimetres: below final_hold_height_m go down only when aligned to the touchdown
-      // criterion, and climb back to it when the error exceeds twice that (hysteresis).
+      // Below the final hold height the slowest rate: the cut happens from it (soft contact).
+      const double rate = h < L.final_hold_height_m ? L.descent_rate_final_mps
+                          : near                    ? L.descent_rate_near_mps
+                                                    : L.descent_rate_mps;
+      // Final decimetres: below final_hold_height_m go on into contact only when aligned to
+      // the touchdown criterion; between it and twice it wait low (final_wait_gap_m), so the
+      // dash into contact once aligned is short (a stop-and-go cart is steady for ~2 s); climb
+      // back to final_hold_height_m when the error exceeds twice the criterion.
       const bool aligned = e_xy < L.touchdown_error_m;
-      const double z_floor =
-          z_top + ((aligned || h > L.final_hold_height_m) ? L.final_hover_gap_m
-                                                          : L.final_hold_height_m);
+      // The height is servoed like the horizontal position: on the gear clearance measured by
+      // vision (h_sp - h), so steps of the navigation height (baro / GPS) cancel.
+      const double h_floor = (aligned || h > L.final_hold_height_m) ? L.final_hover_gap_m
+                                                                   : L.final_wait_gap_m;
       if (e_xy > 2.0 * L.touchdown_error_m) {
-        recovery_z_sp_ = std::max(recovery_z_sp_, z_top + L.final_hold_height_m);
+        recovery_h_sp_ = std::max(recovery_h_sp_, L.final_hold_height_m);
       }
       double vz_ff = 0.0;
       const bool fresh = in_view(t_s, L.descent_stale_s);
-      if (fresh && e_xy < gate && recovery_z_sp_ > z_floor) {
-        recovery_z_sp_ -= rate * dt;
+      if (fresh && e_xy < gate && recovery_h_sp_ > h_floor) {
+        recovery_h_sp_ -= rate * dt;
         vz_ff = -rate;
       }
-      if (recovery_z_sp_ <= z_floor) {
-        recovery_z_sp_ = z_floor;
+      if (recovery_h_sp_ <= h_floor) {
+        recovery_h_sp_ = h_floor;
         vz_ff = 0.0;
       }
       // Never command the setpoint far below the vehicle (limits the descent speed near the
       // top even after a pause of the descent).
-      recovery_z_sp_ = std::max(recovery_z_sp_, nav.p_W_m.z() - 0.5);
+      recovery_h_sp_ = std::max(recovery_h_sp_, h - kMaxClearanceStepDown_m);
       // Visual-servo integral: the horizontal error between the platform and the vehicle
       // is integrated (only once roughly aligned, so the entry transient does not wind it up)
       // and added to the setpoint; it removes the bias of the lagging velocity feed-forward
@@ -355,7 +422,9 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       Eigen::Vector2d carrot = sp.p_W_m.head<2>() - nav.p_W_m.head<2>();
       if (carrot.norm() > L.recovery_max_carrot_m) carrot *= L.recovery_max_carrot_m / carrot.norm();
       sp.p_W_m.head<2>() = nav.p_W_m.head<2>() + carrot;
-      sp.p_W_m.z() = recovery_z_sp_;
+      sp.p_W_m.z() = nav.p_W_m.z() + (recovery_h_sp_ - h);
+      // (No acceleration feed-forward: the acceleration of the fit, from fixes that carry the
+      // navigation position's GPS steps, doubled the attitude noise in the real loop.)
       sp.v_W_mps = Eigen::Vector3d(diag_.platform_v_W_mps.x(), diag_.platform_v_W_mps.y(), vz_ff);
       return sp;
     }
@@ -373,7 +442,9 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
         }
         return run_mode_machine(t_s, nav);
       }
-      return hold(hold_p_);
+      Setpoint sp = hold(hold_p_);
+      follow_prediction(t_s, &sp);  // keep the moving cart below while climbing
+      return sp;
     }
   }
   return hold(nav.p_W_m);

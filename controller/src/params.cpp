@@ -4,6 +4,11 @@
 #include <cmath>
 
 namespace lander::ctl {
+namespace {
+// A floor further than this below the top would let the vertical loop push the gear into the
+// cart at full descent speed if the cut did not trigger (m).
+constexpr double kMaxFinalHoverGapBelow_m = 0.2;
+}  // namespace
 
 void VehicleParams::validate() const {
   require(mass_kg > 0, "mass_kg", "must be > 0");
@@ -55,6 +60,10 @@ void TrackerParams::validate() const {
   require(fit_window_s > 0, "fit_window_s", "must be > 0");
   require(max_poly_extrapolation_s >= 0, "max_poly_extrapolation_s", "must be >= 0");
   require(velocity_window_s > 0, "velocity_window_s", "must be > 0");
+  require(platform_accel_noise_mps2 > 0, "platform_accel_noise_mps2", "must be > 0");
+  require(fix_noise_m > 0, "fix_noise_m", "must be > 0");
+  require(fix_noise_per_m >= 0, "fix_noise_per_m", "must be >= 0");
+  require(fix_gate_sigma > 0, "fix_gate_sigma", "must be > 0");
   require(relative_window_s > 0, "relative_window_s", "must be > 0");
   require(platform_max_speed_mps > 0, "platform_max_speed_mps", "must be > 0");
   require(history_s >= fit_window_s, "history_s", "must be >= fit_window_s");
@@ -73,12 +82,16 @@ void LandingParams::validate() const {
   require(descent_rate_mps > 0, "descent_rate_mps", "must be > 0");
   require(descent_rate_near_mps > 0 && descent_rate_near_mps <= descent_rate_mps,
           "descent_rate_near_mps", "must be in (0, descent_rate_mps]");
+  require(descent_rate_final_mps > 0 && descent_rate_final_mps <= descent_rate_near_mps,
+          "descent_rate_final_mps", "must be in (0, descent_rate_near_mps]");
   require(near_height_m > 0, "near_height_m", "must be > 0");
   require(descent_gate_m > 0, "descent_gate_m", "must be > 0");
   require(descent_gate_near_m > 0, "descent_gate_near_m", "must be > 0");
-  require(final_hover_gap_m >= 0 && final_hover_gap_m < cut_height_m, "final_hover_gap_m",
-          "must be in [0, cut_height_m)");
+  require(final_hover_gap_m >= -kMaxFinalHoverGapBelow_m && final_hover_gap_m < cut_height_m,
+          "final_hover_gap_m", "must be in [-0.2, cut_height_m)");
   require(final_hold_height_m > cut_height_m, "final_hold_height_m", "must be > cut_height_m");
+  require(final_wait_gap_m > cut_height_m && final_wait_gap_m < final_hold_height_m,
+          "final_wait_gap_m", "must be in (cut_height_m, final_hold_height_m)");
   require(recovery_max_carrot_m > 0, "recovery_max_carrot_m", "must be > 0");
   require(servo_ki >= 0, "servo_ki", "must be >= 0");
   require(servo_max_correction_m >= 0, "servo_max_correction_m", "must be >= 0");
@@ -112,6 +125,8 @@ void LandingParams::validate() const {
   require(search_yaw_rate_degps >= 0 && search_yaw_rate_degps <= 90, "search_yaw_rate_degps",
           "must be in [0, 90]");
   require(observe_follow_max_speed_mps > 0, "observe_follow_max_speed_mps", "must be > 0");
+  require(observe_follow_max_accel_mps2 > 0, "observe_follow_max_accel_mps2", "must be > 0");
+  require(search_predict_max_s >= 0, "search_predict_max_s", "must be >= 0");
 }
 
 namespace {

@@ -30,8 +30,28 @@ void PlatformTracker::add_nav(const NavState& nav) {
     if (nav.t_s == nav_.back().t_s) nav_.back() = nav;
     return;  // out of order: ignore
   }
+  // Trapezoidal integral of the navigation velocity.
+  dr_.push_back(nav_.empty() ? Eigen::Vector3d::Zero()
+                             : Eigen::Vector3d(dr_.back() + 0.5 * (nav_.back().v_W_mps + nav.v_W_mps) *
+                                                                (nav.t_s - nav_.back().t_s)));
   nav_.push_back(nav);
-  while (nav_.size() > 2 && nav_.front().t_s < nav.t_s - p_.nav_history_s) nav_.pop_front();
+  while (nav_.size() > 2 && nav_.front().t_s < nav.t_s - p_.nav_history_s) {
+    nav_.pop_front();
+    dr_.pop_front();
+  }
+}
+
+Eigen::Vector3d PlatformTracker::dead_reckoned_at(double t_s) const {
+  if (nav_.empty()) {
+    throw std::logic_error("PlatformTracker::dead_reckoned_at: no valid navigation state");
+  }
+  if (t_s <= nav_.front().t_s) return dr_.front();
+  if (t_s >= nav_.back().t_s) return dr_.back();
+  const auto hi = std::upper_bound(nav_.begin(), nav_.end(), t_s,
+                                   [](double t, const NavState& n) { return t < n.t_s; });
+  const auto i = static_cast<size_t>(hi - nav_.begin());
+  const double u = (t_s - nav_[i - 1].t_s) / (nav_[i].t_s - nav_[i - 1].t_s);
+  return (1 - u) * dr_[i - 1] + u * dr_[i];
 }
 
 NavState PlatformTracker::nav_at(double t_s) const {
@@ -72,14 +92,65 @@ bool PlatformTracker::add_observation(const PlatformObservation& obs) {
   last_detection_t_ = std::max(last_detection_t_, obs.t_s);
   if (!obs.keyframe || nav_.empty()) return false;
   if (!fixes_.empty() && obs.t_s <= fixes_.back().t_s) return false;  // stale or duplicate
-  fixes_.push_back(fix_from(obs, nav_at(obs.t_s), X_BC_));
+  PlatformFix fix = fix_from(obs, nav_at(obs.t_s), X_BC_);
+  fix.p_dr_m = fix.p_BP_W_m + dead_reckoned_at(obs.t_s);
+  fixes_.push_back(fix);
+  ++total_fixes_;
+  filter_update(fix);
   ++streak_;
   while (!fixes_.empty() && fixes_.front().t_s < obs.t_s - p_.history_s) fixes_.pop_front();
   fit_dirty_ = true;
   return true;
 }
 
+void PlatformTracker::filter_update(const PlatformFix& fix) {
+  const double range = fix.p_BP_W_m.norm();
+  const double sigma = p_.fix_noise_m + p_.fix_noise_per_m * range;
+  const double R = sigma * sigma;
+  const Eigen::Vector3d z = fix.p_dr_m;
+  auto restart = [&] {
+    kf_init_ = true;
+    kf_t_ = fix.t_s;
+    kf_x_.row(0) = z.transpose();
+    kf_x_.row(1).setZero();
+    // Velocity unknown: 1 m/s sigma (a cart walks at ~0.5-1.5 m/s).
+    kf_P_ << R, 0.0, 0.0, 1.0;
+    kf_outliers_in_row_ = 0;
+  };
+  if (!kf_init_) {
+    restart();
+    return;
+  }
+  // Predict with the constant-velocity model (white-noise acceleration q).
+  const double dt = std::max(0.0, fix.t_s - kf_t_);
+  kf_t_ = fix.t_s;
+  Eigen::Matrix2d F;
+  F << 1.0, dt, 0.0, 1.0;
+  const double q = p_.platform_accel_noise_mps2 * p_.platform_accel_noise_mps2;
+  Eigen::Matrix2d Q;
+  Q << q * dt * dt * dt / 3.0, q * dt * dt / 2.0, q * dt * dt / 2.0, q * dt;
+  kf_x_ = F * kf_x_;
+  kf_P_ = F * kf_P_ * F.transpose() + Q;
+  // Update with the position fix (H = [1 0] on each axis).
+  const Eigen::Vector3d innov = z - kf_x_.row(0).transpose();
+  const double S = kf_P_(0, 0) + R;
+  if (innov.norm() > p_.fix_gate_sigma * std::sqrt(S)) {
+    ++rejected_fixes_;
+    if (++kf_outliers_in_row_ >= 3) restart();  // the platform is elsewhere: start again
+    return;
+  }
+  kf_outliers_in_row_ = 0;
+  const Eigen::Vector2d K = kf_P_.col(0) / S;
+  kf_x_ += K * innov.transpose();
+  kf_P_ = (Eigen::Matrix2d::Identity() - K * Eigen::RowVector2d(1.0, 0.0)) * kf_P_;
+  kf_P_ = 0.5 * (kf_P_ + kf_P_.transpose()).eval();
+}
+
 void PlatformTracker::clear() {
+  kf_init_ = false;
+  kf_outliers_in_row_ = 0;
+  total_fixes_ = 0;
+  rejected_fixes_ = 0;
   fixes_.clear();
   streak_ = 0;
   fit_dirty_ = true;
@@ -113,9 +184,9 @@ const PolynomialFit3& PlatformTracker::fit() const {
 }
 
 // Local quadratic least squares over the last velocity_window_s, p(d) = a + b d + c d^2 with
-// d = t - t_last: b is the velocity at the last fix without the half-window lag of a straight
-// line (the cart brakes and turns), a the smoothed position there.
-bool PlatformTracker::local_fit(Eigen::Vector3d* p_last, Eigen::Vector3d* v_last) const {
+// d = t - t_last: a is the smoothed position at the last fix without the lag of a mean (the
+// cart brakes and turns).
+bool PlatformTracker::local_position(Eigen::Vector3d* p_last) const {
   if (fixes_.size() < 3) return false;
   const double t_last = fixes_.back().t_s;
   const double t_from = t_last - p_.velocity_window_s;
@@ -141,24 +212,23 @@ bool PlatformTracker::local_fit(Eigen::Vector3d* p_last, Eigen::Vector3d* v_last
     Y.row(i) = p[i].transpose();
   }
   const Eigen::MatrixXd C = V.colPivHouseholderQr().solve(Y);
-  if (p_last) *p_last = C.row(0).transpose();
-  if (v_last) *v_last = clamp_norm(C.row(1).transpose() / scale, p_.platform_max_speed_mps);
+  *p_last = C.row(0).transpose();
   return true;
 }
 
 Eigen::Vector3d PlatformTracker::velocity() const {
-  Eigen::Vector3d v;
-  return local_fit(nullptr, &v) ? v : Eigen::Vector3d::Zero();
+  if (!kf_init_) return Eigen::Vector3d::Zero();
+  return clamp_norm(kf_x_.row(1).transpose(), p_.platform_max_speed_mps);
 }
 
 Eigen::Vector3d PlatformTracker::position_now(double t_s) const {
   const PlatformFix& f = latest();
-  Eigen::Vector3d p, v;
-  if (!local_fit(&p, &v)) return f.p_W_m;
-  return p + v * std::max(0.0, t_s - f.t_s);
+  Eigen::Vector3d p;
+  if (!local_position(&p)) return f.p_W_m;
+  return p + velocity() * std::max(0.0, t_s - f.t_s);
 }
 
-Eigen::Vector3d PlatformTracker::relative_now(double t_s, const NavState& nav_now) const {
+Eigen::Vector3d PlatformTracker::relative_now(double t_s) const {
   const PlatformFix& last = latest();
   // Line fit r = a + b (t - t_last) of the recent relative vectors; a is the smoothed r.
   double s0 = 0, s1 = 0, s2 = 0;
@@ -175,7 +245,8 @@ Eigen::Vector3d PlatformTracker::relative_now(double t_s, const NavState& nav_no
   const double det = s0 * s2 - s1 * s1;
   const Eigen::Vector3d r_last =
       (s0 >= 3 && det > 1e-12) ? Eigen::Vector3d((s2 * sr - s1 * str) / det) : last.p_BP_W_m;
-  const Eigen::Vector3d vehicle_moved = nav_now.p_W_m - nav_at(last.t_s).p_W_m;
+  // The vehicle's displacement since the fix, dead-reckoned (no GPS correction steps).
+  const Eigen::Vector3d vehicle_moved = dead_reckoned_at(t_s) - dead_reckoned_at(last.t_s);
   return r_last + velocity() * std::max(0.0, t_s - last.t_s) - vehicle_moved;
 }
 

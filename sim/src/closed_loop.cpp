@@ -164,9 +164,10 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
   std::ofstream trace(o.out_dir + "/trace.csv");
   if (!trace) throw std::runtime_error(o.out_dir + "/trace.csv: cannot write");
   trace << "t_s,mode,x_WB_m,y_WB_m,z_WB_m,roll_rad,pitch_rad,yaw_rad,vx_W_mps,vy_W_mps,vz_W_mps,"
-           "x_WP_m,y_WP_m,z_WP_m,yaw_WP_rad,nav_x_m,nav_y_m,nav_z_m,nav_vx_mps,nav_vy_mps,"
+           "x_WP_m,y_WP_m,z_WP_m,yaw_WP_rad,vx_cart_mps,vy_cart_mps,nav_x_m,nav_y_m,nav_z_m,nav_vx_mps,nav_vy_mps,"
            "nav_vz_mps,nav_roll_rad,nav_pitch_rad,nav_yaw_rad,fused_z_m,fused_h_surface_m,"
-           "true_h_surface_m,ctl_platform_x_m,ctl_platform_y_m,ctl_platform_z_m,"
+           "true_h_surface_m,ctl_platform_x_m,ctl_platform_y_m,ctl_platform_z_m,ctl_platform_vx_mps,"
+           "ctl_platform_vy_mps,"
            "ctl_horizontal_error_m,true_horizontal_error_m,sp_x_m,sp_y_m,sp_z_m,"
            "vision_detected,w0_radps,w1_radps,w2_radps,w3_radps,w4_radps,w5_radps\n";
   const int trace_every = std::max(1, static_cast<int>(std::lround(1.0 / (s.trace_rate_hz * dt))));
@@ -460,17 +461,20 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
       const auto& dg = controller.diagnostics();
       const Eigen::Vector3d rpy = rpy_of(truth.X_WB.linear()), nrpy = rpy_of(ns.q_WB.toRotationMatrix());
       const Eigen::Vector3d pw = truth.X_WB.translation(), pp = X_WP.translation();
+      const Eigen::Vector3d cart_v = world.cart_qd();  // (x, y, yaw) rates
       char buf[2048];
       int n = std::snprintf(
           buf, sizeof(buf),
           "%.4f,%s,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,"
-          "%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%d",
+          "%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,"
+          "%.5f,%.5f,%.5f,%.5f,%d",
           tn, ctl::to_string(controller.mode()), pw.x(), pw.y(), pw.z(), rpy.x(), rpy.y(), rpy.z(),
           truth.v_W_mps.x(), truth.v_W_mps.y(), truth.v_W_mps.z(), pp.x(), pp.y(), pp.z(),
-          rpy_of(X_WP.linear()).z(), ns.p_W_m.x(), ns.p_W_m.y(), ns.p_W_m.z(), ns.v_W_mps.x(),
+          rpy_of(X_WP.linear()).z(), cart_v.x(), cart_v.y(), ns.p_W_m.x(), ns.p_W_m.y(), ns.p_W_m.z(), ns.v_W_mps.x(),
           ns.v_W_mps.y(), ns.v_W_mps.z(), nrpy.x(), nrpy.y(), nrpy.z(), a.z_W_m, a.h_surface_m,
           std::isfinite(truth.h_surface_m) ? truth.h_surface_m : -1.0, dg.platform_W_m.x(),
-          dg.platform_W_m.y(), dg.platform_W_m.z(), dg.horizontal_error_m,
+          dg.platform_W_m.y(), dg.platform_W_m.z(), dg.platform_v_W_mps.x(),
+          dg.platform_v_W_mps.y(), dg.horizontal_error_m,
           (pw - pp).head<2>().norm(), dg.setpoint.p_W_m.x(), dg.setpoint.p_W_m.y(),
           dg.setpoint.p_W_m.z(), (last_det_t >= 0 && last_det.detected) ? 1 : 0);
       for (double w : motors.speeds_radps()) n += std::snprintf(buf + n, sizeof(buf) - n, ",%.2f", w);

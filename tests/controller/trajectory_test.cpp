@@ -64,11 +64,18 @@ struct Stream {
   PlatformTracker tracker{tp, mount};
   std::mt19937 rng{3};
   // Feeds a keyframe of a platform at p_WP seen from a vehicle at p_WB (level, yaw 0).
+  double t_prev = -1.0;
+  Eigen::Vector3d p_prev = Eigen::Vector3d::Zero();
   void feed(double t, const Eigen::Vector3d& p_WB, const Eigen::Vector3d& p_WP, double noise_m) {
     NavState nav;
     nav.t_s = t;
     nav.valid = true;
     nav.p_W_m = p_WB;
+    // A consistent navigation state: its velocity is the rate of its position (the tracker
+    // dead-reckons the vehicle from it).
+    if (t_prev >= 0.0 && t > t_prev) nav.v_W_mps = (p_WB - p_prev) / (t - t_prev);
+    t_prev = t;
+    p_prev = p_WB;
     tracker.add_nav(nav);
     Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
     X_WB.translation() = p_WB;
@@ -146,6 +153,90 @@ TEST(PlatformTracker, NonKeyframesAndMissesDoNotMakeFixes) {
   miss.t_s = 0.2;
   EXPECT_FALSE(s.tracker.add_observation(miss));
   EXPECT_EQ(s.tracker.keyframe_streak(), 0);
+}
+
+// A poor GPS makes the navigation position step at each 5 Hz fix while the navigation
+// velocity stays smooth. The platform velocity (what the visual servo feeds forward) and the
+// relative vector must not see the steps: the tracker dead-reckons the vehicle on the
+// navigation velocity.
+TEST(PlatformTracker, NavigationPositionStepsDoNotReachVelocityOrRelativeVector) {
+  TrackerParams tp;
+  CameraMount mount;
+  PlatformTracker tracker(tp, mount);
+  std::mt19937 rng(5);
+  std::normal_distribution<double> step(0.0, 0.3);  // 0.3 m per GPS correction
+  const Eigen::Vector3d v_P(0.5, 0.2, 0.0), v_B(0.4, 0.2, 0.0);
+  Eigen::Vector3d nav_offset = Eigen::Vector3d::Zero();
+  for (int i = 0; i <= 1000; ++i) {  // 4 s at 250 Hz, a camera frame every 8th step
+    const double t = i * 0.004;
+    if (i % 50 == 0) nav_offset += Eigen::Vector3d(step(rng), step(rng), 0.0);  // 5 Hz
+    const Eigen::Vector3d p_WB = Eigen::Vector3d(-1.0, 0.0, 5.0) + v_B * t;
+    NavState nav;
+    nav.t_s = t;
+    nav.valid = true;
+    nav.p_W_m = p_WB + nav_offset;
+    nav.v_W_mps = v_B;
+    tracker.add_nav(nav);
+    if (i % 8 != 0) continue;
+    Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
+    X_WB.translation() = p_WB;
+    Eigen::Isometry3d X_WP = Eigen::Isometry3d::Identity();
+    X_WP.translation() = Eigen::Vector3d(0.0, 0.0, 0.8) + v_P * t;
+    PlatformObservation obs;
+    obs.t_s = t;
+    obs.detected = obs.keyframe = true;
+    obs.X_CP = (X_WB * mount.X_BC()).inverse() * X_WP;  // noise-free vision
+    tracker.add_observation(obs);
+  }
+  // Noise-free fixes on a constant-velocity platform: the filter has converged to the true
+  // velocity within 1 cm/s (the steps alone made ~0.3 m/s of the position fit's slope).
+  constexpr double kVelocityTol_mps = 0.01;
+  EXPECT_LT((tracker.velocity() - v_P).norm(), kVelocityTol_mps);
+  // The relative vector 0.02 s after the last fix: exact up to the velocity error times the
+  // extrapolation (< 1 mm); 5 mm bounds it well below one GPS step.
+  const double t_now = 4.02;
+  const Eigen::Vector3d rel_true =
+      (Eigen::Vector3d(0.0, 0.0, 0.8) + v_P * t_now) - (Eigen::Vector3d(-1.0, 0.0, 5.0) + v_B * t_now);
+  NavState nav;
+  nav.t_s = t_now;
+  nav.valid = true;
+  nav.p_W_m = Eigen::Vector3d(-1.0, 0.0, 5.0) + v_B * t_now + nav_offset;
+  nav.v_W_mps = v_B;
+  tracker.add_nav(nav);
+  constexpr double kRelativeTol_m = 0.005;
+  EXPECT_LT((tracker.relative_now(t_now) - rel_true).norm(), kRelativeTol_m);
+}
+
+// With blur only a few keyframes a second survive, and far ones are noisy: the velocity
+// filter still settles near the truth, and a fix far off (a wrong identity) is rejected.
+TEST(PlatformTracker, VelocityFromSparseNoisyFixesAndOutlierRejected) {
+  Stream s;
+  const Eigen::Vector3d v(0.5, -0.3, 0.0);
+  double sum_sq = 0.0;
+  int n = 0;
+  for (int i = 0; i < 60; ++i) {  // 6 keyframes a second for 10 s at 9.2 m range
+    const double t = i / 6.0;
+    const Eigen::Vector3d p_WP = Eigen::Vector3d(0, 0, 0.8) + v * t;
+    s.feed(t, p_WP + Eigen::Vector3d(0, 0, 10.0), p_WP, 0.05);
+    if (i >= 30) {  // the last 5 s, converged
+      sum_sq += (s.tracker.velocity() - v).head<2>().squaredNorm();
+      ++n;
+    }
+  }
+  // This filter (0.7 m/s^2 process noise, fixes weighted as 11 cm at 9.2 m) fed 5 cm noise at
+  // 6 Hz has a steady velocity sigma of 0.09 m/s per axis (its covariance recursion), so the
+  // horizontal RMS is ~0.13 m/s; 0.2 m/s leaves room for the 30 correlated samples. Without
+  // convergence (velocity 0) the RMS would be 0.58 m/s.
+  constexpr double kSparseVelocityRmsTol_mps = 0.2;
+  EXPECT_LT(std::sqrt(sum_sq / n), kSparseVelocityRmsTol_mps);
+  // A fix 3 m off (a wrong identity) is rejected and leaves the velocity as it was.
+  const int rejected = s.tracker.rejected_fixes();
+  const Eigen::Vector3d v_before = s.tracker.velocity();
+  const double t = 60 / 6.0;
+  const Eigen::Vector3d p_WP = Eigen::Vector3d(0, 0, 0.8) + v * t;
+  s.feed(t, p_WP + Eigen::Vector3d(0, 0, 10.0), p_WP + Eigen::Vector3d(3.0, 0, 0), 0.0);
+  EXPECT_EQ(s.tracker.rejected_fixes(), rejected + 1);
+  EXPECT_NEAR((s.tracker.velocity() - v_before).norm(), 0.0, 1e-12);
 }
 
 TEST(CubicTrajectory, MeetsTheBoundaryConditionsOfEq29) {

@@ -29,8 +29,10 @@
 namespace lander::ctl {
 
 enum class Mode {
-  kSearch,     ///< target not (yet) in view: hold position (at least search_min_height_m)
-               ///< and sweep the heading so the wide image axis scans around
+  kSearch,     ///< target not (yet) in view: after a loss fly to the tracker's prediction of
+               ///< the platform (search_predict_max_s); with nothing to predict from, hold
+               ///< position (at least search_min_height_m) and sweep the heading so the
+               ///< wide image axis scans around
   kObserve,    ///< seed 000 3.1: target in view, collect fixes, follow it horizontally
   kApproach,   ///< seed 000 3.2: fly the eq. 29 cubic to the eq. 28 prediction
   kRecovery,   ///< seed 000 3.3: visual-servo tracking and controlled descent
@@ -108,6 +110,11 @@ class LandingController {
   bool in_view(double t_s, double timeout_s) const;
   double platform_z() const;  // last known platform height, or 0 (ground)
   Setpoint hold(const Eigen::Vector3d& p) const;
+  // Search / go-around after a loss: sets sp's horizontal position (and hold_p_) to the
+  // tracker's prediction of the platform now and its velocity as feed-forward; returns false
+  // (and drops the history) when there is no fix or the last is older than
+  // search_predict_max_s.
+  bool follow_prediction(double t_s, Setpoint* sp);
 
   ControllerParams p_;
   CascadeController cascade_;
@@ -124,8 +131,9 @@ class LandingController {
   double last_outer_t_{0.0};
   Eigen::Vector3d hold_p_{Eigen::Vector3d::Zero()};    // search / go-around target
   Eigen::Vector3d follow_p_{Eigen::Vector3d::Zero()};  // observe: slewed platform follow point
+  Eigen::Vector2d follow_catch_v_{Eigen::Vector2d::Zero()};  // its velocity rel. to platform
   CubicTrajectory approach_;
-  double recovery_z_sp_{0.0};
+  double recovery_h_sp_{0.0};  // recovery: gear-clearance setpoint above the top (m)
   Eigen::Vector2d servo_int_{Eigen::Vector2d::Zero()};  // visual-servo integral (m)
   double cut_t_{0.0};
   double contact_accum_s_{0.0};

@@ -100,7 +100,15 @@ struct TrackerParams {
   double fit_window_s{3.0};             ///< fit window (s): ~ the paper's 80 frames at 30 Hz
   double max_poly_extrapolation_s{0.5}; ///< beyond this horizon the prediction continues
                                         ///< linearly (a quartic diverges far out) (s)
-  double velocity_window_s{1.0};        ///< window of the local velocity fit (s)
+  double velocity_window_s{1.0};        ///< window of the local position fit (s)
+  double platform_accel_noise_mps2{0.7};///< velocity filter: white-noise acceleration of the
+                                        ///< platform (m/s^2); a cart pulled by a person
+                                        ///< speeds up and brakes at ~0.6 m/s^2
+  double fix_noise_m{0.02};             ///< velocity filter: fix noise at zero range (m)
+  double fix_noise_per_m{0.01};         ///< ... growing with the range (m per m): ~0.6 deg of
+                                        ///< attitude and vision error seen from the vehicle
+  double fix_gate_sigma{5.0};           ///< a fix this many sigma off the filter's prediction
+                                        ///< is rejected; 3 in a row restart the filter
   double relative_window_s{0.25};       ///< window of the line fit of the relative vector (s)
   double platform_max_speed_mps{2.0};   ///< plausibility bound of the platform speed (m/s)
   double history_s{10.0};               ///< how long observations are kept (s)
@@ -114,6 +122,10 @@ void visit_fields(V& v, TrackerParams& p) {
   v("fit_window_s", p.fit_window_s);
   v("max_poly_extrapolation_s", p.max_poly_extrapolation_s);
   v("velocity_window_s", p.velocity_window_s);
+  v("platform_accel_noise_mps2", p.platform_accel_noise_mps2);
+  v("fix_noise_m", p.fix_noise_m);
+  v("fix_noise_per_m", p.fix_noise_per_m);
+  v("fix_gate_sigma", p.fix_gate_sigma);
   v("relative_window_s", p.relative_window_s);
   v("platform_max_speed_mps", p.platform_max_speed_mps);
   v("history_s", p.history_s);
@@ -134,23 +146,42 @@ struct LandingParams {
   // recovery: visual servo and controlled descent (seed 000 section 3.3)
   double descent_rate_mps{0.5};           ///< descent rate high above the platform (m/s)
   double descent_rate_near_mps{0.2};      ///< descent rate below near_height_m (m/s)
+  double descent_rate_final_mps{0.15};    ///< descent rate below final_hold_height_m (m/s):
+                                          ///< the descent goes on into contact at it (see
+                                          ///< final_hover_gap_m); slower needs the 5 cm
+                                          ///< alignment held longer (0.1 m/s from 0.3 m: 70 s
+                                          ///< of retries in default.yaml; now from 0.1 m)
   double near_height_m{1.0};              ///< gear height above the top where it slows (m)
   double descent_gate_m{0.25};            ///< descend only while |horizontal error| < this (m)
   double descent_gate_near_m{0.10};       ///< the same gate below near_height_m (m)
-  double final_hover_gap_m{0.03};         ///< lowest gear clearance before the cut (m)
-  double final_hold_height_m{0.30};       ///< below this gear clearance descend only while
-                                          ///< |error| < touchdown_error_m; climb back to it
+  double final_hover_gap_m{-0.05};        ///< lowest gear clearance the descent aims at (m);
+                                          ///< below 0 (under the top) so the final descent
+                                          ///< goes on into contact at ~descent_rate_final_mps
+                                          ///< and the cut falls from at most cut_height_m
+  double final_hold_height_m{0.30};       ///< below this gear clearance descend into contact
+                                          ///< only while |error| < touchdown_error_m (else
+                                          ///< wait at final_wait_gap_m); climb back to it
                                           ///< when |error| > 2 touchdown_error_m (m)
+  double final_wait_gap_m{0.10};          ///< below final_hold_height_m with an error between
+                                          ///< touchdown_error_m and twice it: wait at this
+                                          ///< gear clearance (m); 5 cm let a tilted skid touch
+                                          ///< the cart before the cut
   double recovery_max_carrot_m{0.3};      ///< visual-servo setpoint at most this far from the
                                           ///< vehicle horizontally: bounds the catch-up speed
                                           ///< (and tilt, which would swing the view off) (m)
-  double servo_ki{0.6};                   ///< integral gain of the visual servo on the
-                                          ///< horizontal error (removes tracking bias) (1/s)
-  double servo_max_correction_m{0.3};     ///< bound of that integral correction (m)
+  double servo_ki{0.2};                   ///< integral gain of the visual servo on the
+                                          ///< horizontal error (removes tracking bias) (1/s);
+                                          ///< 0.6 wound up to -0.15 m while a stop-and-go cart
+                                          ///< braked and then held the vehicle behind it
+  double servo_max_correction_m{0.15};    ///< bound of that integral correction (m)
   // touchdown (seed 000 section 3.3: < 5 cm and steady platform)
   double gear_height_m{0.25};             ///< CoM height above the surface when landed (m):
                                           ///< models/hexarotor.xml skids at -0.24 m, r 0.01 m
-  double cut_height_m{0.06};              ///< cut when gear clearance is below this (m)
+  double cut_height_m{0.010};             ///< cut when gear clearance is below this (m):
+                                          ///< a fall of 1.5 cm adds ~0.3 m/s (rotors spin
+                                          ///< down; 0.48 m/s at contact in the SoftTouchdown
+                                          ///< test, 0.23 m/s from 1 cm); 6 cm gave
+                                          ///< ~0.75-1 m/s
   double touchdown_error_m{0.05};         ///< cut only when |horizontal error| < this (m)
   double max_touchdown_rel_speed_mps{0.3};///< cut only when |relative velocity| < this (m/s)
   double steady_window_s{0.5};            ///< window of the platform-steadiness test (s)
@@ -177,7 +208,17 @@ struct LandingParams {
   double search_min_height_m{2.0};        ///< search/hold at least this high above ground (m)
   double search_yaw_rate_degps{20.0};     ///< heading sweep while searching, so the wide image
                                           ///< axis scans around the vehicle (deg/s), 0 = off
-  double observe_follow_max_speed_mps{1.0};///< horizontal speed following in observe (m/s)
+  double observe_follow_max_speed_mps{2.0};///< catch-up speed of the observe follow point
+                                          ///< relative to the platform, on top of its fed-
+                                          ///< forward velocity (m/s): a 1 m/s cart acquired
+                                          ///< 9 m away is caught in ~6 s
+  double observe_follow_max_accel_mps2{1.0};///< acceleration of that catch-up (m/s^2): ~6 deg
+                                          ///< of tilt, the camera (fixed under the body)
+                                          ///< swings little and keeps a platform ahead
+  double search_predict_max_s{10.0};      ///< after a loss, search (and go-around) fly to the
+                                          ///< tracker's prediction of the platform for at most
+                                          ///< this long after the last detection; then the
+                                          ///< history is dropped and search holds (s)
   void validate() const;
 };
 
@@ -192,11 +233,13 @@ void visit_fields(V& v, LandingParams& p) {
   v("approach_settle_timeout_s", p.approach_settle_timeout_s);
   v("descent_rate_mps", p.descent_rate_mps);
   v("descent_rate_near_mps", p.descent_rate_near_mps);
+  v("descent_rate_final_mps", p.descent_rate_final_mps);
   v("near_height_m", p.near_height_m);
   v("descent_gate_m", p.descent_gate_m);
   v("descent_gate_near_m", p.descent_gate_near_m);
   v("final_hover_gap_m", p.final_hover_gap_m);
   v("final_hold_height_m", p.final_hold_height_m);
+  v("final_wait_gap_m", p.final_wait_gap_m);
   v("recovery_max_carrot_m", p.recovery_max_carrot_m);
   v("servo_ki", p.servo_ki);
   v("servo_max_correction_m", p.servo_max_correction_m);
@@ -223,6 +266,8 @@ void visit_fields(V& v, LandingParams& p) {
   v("search_min_height_m", p.search_min_height_m);
   v("search_yaw_rate_degps", p.search_yaw_rate_degps);
   v("observe_follow_max_speed_mps", p.observe_follow_max_speed_mps);
+  v("observe_follow_max_accel_mps2", p.observe_follow_max_accel_mps2);
+  v("search_predict_max_s", p.search_predict_max_s);
 }
 
 // Everything the controller reads, one YAML mapping with four sections.

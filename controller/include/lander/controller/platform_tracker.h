@@ -23,6 +23,11 @@ struct PlatformFix {
   Eigen::Vector3d p_W_m{Eigen::Vector3d::Zero()};       ///< platform origin in W (m), eq. 24
   Eigen::Vector3d n_W{Eigen::Vector3d::UnitZ()};        ///< platform +z in W (unit)
   Eigen::Vector3d p_BP_W_m{Eigen::Vector3d::Zero()};    ///< platform minus vehicle, in W (m)
+  /// p_BP_W_m plus the vehicle's dead-reckoned position (the integral of the navigation
+  /// velocity, see PlatformTracker::dead_reckoned_at): a platform path without the steps the
+  /// GPS corrections put into the navigation position. Its slope is the platform velocity
+  /// as the velocity loop sees it (navigation velocity + rate of the relative vector).
+  Eigen::Vector3d p_dr_m{Eigen::Vector3d::Zero()};
 };
 
 class PlatformTracker {
@@ -36,6 +41,12 @@ class PlatformTracker {
   // Throws std::logic_error if no valid nav state was added yet.
   NavState nav_at(double t_s) const;
 
+  // The integral of the navigation velocity (trapezoidal over the add_nav() samples, from
+  // an arbitrary origin) at t_s, interpolated like nav_at(). Differences of it are the
+  // vehicle's displacement without the position corrections of GPS fixes.
+  // Throws std::logic_error if no valid nav state was added yet.
+  Eigen::Vector3d dead_reckoned_at(double t_s) const;
+
   // Processes one vision result. A detected keyframe becomes a fix (returns true); a detected
   // non-keyframe (blurred) counts as "in view" only; no detection resets the keyframe streak.
   bool add_observation(const PlatformObservation& obs);
@@ -46,7 +57,12 @@ class PlatformTracker {
 
   void clear();  ///< forgets all fixes (re-acquisition starts a fresh history)
 
-  int num_fixes() const { return static_cast<int>(fixes_.size()); }
+  int num_fixes() const { return static_cast<int>(fixes_.size()); }  ///< in history_s
+  /// Keyframes turned into fixes since the last clear() (not bounded by history_s): the
+  /// count of seed 000's "80 observed frames" when blur leaves a few keyframes a second.
+  int total_fixes() const { return total_fixes_; }
+  /// Fixes the velocity filter rejected as outliers since the last clear().
+  int rejected_fixes() const { return rejected_fixes_; }
   int keyframe_streak() const { return streak_; }
   bool has_fix() const { return !fixes_.empty(); }
   const PlatformFix& latest() const;  ///< throws std::logic_error if none
@@ -59,21 +75,27 @@ class PlatformTracker {
 
   // Platform minus vehicle now, in W axes (m): what the visual servo closes. The relative
   // vectors of the last relative_window_s (line fit) at the last fix, moved on by velocity()
-  // and back by the vehicle's own displacement since then (short-term navigation). Unlike
-  // position_now() - nav.p, a slowly wandering navigation position (GPS) cancels out.
-  Eigen::Vector3d relative_now(double t_s, const NavState& nav_now) const;
+  // and back by the vehicle's own dead-reckoned displacement since then (add_nav() up to t_s
+  // first). Unlike position_now() - nav.p, a wandering or stepping navigation position (GPS)
+  // cancels out.
+  Eigen::Vector3d relative_now(double t_s) const;
 
   // Predicted platform position at t_s (eq. 28 without epsilon): the polynomial up to
   // max_poly_extrapolation_s past the last fix, continued linearly beyond, and its distance
   // from the last fix bounded by platform_max_speed_mps * horizon.
   Eigen::Vector3d predict(double t_s) const;
 
-  // Platform velocity in W at the last fix (m/s): local quadratic least squares over
-  // velocity_window_s (a line with fewer than 6 fixes), speed-bounded; 0 with < 3 fixes.
+  // Platform velocity in W at the last fix (m/s), speed-bounded; 0 before the first fix.
+  // A constant-velocity Kalman filter per axis (white-noise acceleration
+  // platform_accel_noise_mps2) on the dead-reckoned fixes p_dr_m, each weighted by its
+  // range (fix_noise_m + fix_noise_per_m * range): a blurred run leaves a few keyframes a
+  // second and far ones are noisier, which a fixed-window fit does not know. From p_dr_m
+  // rather than p_W_m: the 5 Hz position corrections of a poor GPS (steps of decimetres)
+  // made velocities of ~0.3 m/s out of p_W_m.
   Eigen::Vector3d velocity() const;
 
-  // The platform now: the local fit's position at the last fix moved on by velocity()
-  // (latency compensation); the raw last fix when there are too few fixes to fit.
+  // The platform now: the local fit's position (velocity_window_s) at the last fix moved on
+  // by velocity() (latency compensation); the raw last fix when there are too few to fit.
   Eigen::Vector3d position_now(double t_s) const;
 
   // Steady platform (seed 000 section 3.3): over the last window_s, every normal within
@@ -83,11 +105,22 @@ class PlatformTracker {
               std::string* why = nullptr) const;
 
  private:
-  bool local_fit(Eigen::Vector3d* p_last, Eigen::Vector3d* v_last) const;
+  bool local_position(Eigen::Vector3d* p_last) const;
 
   TrackerParams p_;
   Eigen::Isometry3d X_BC_;
   std::deque<NavState> nav_;
+  std::deque<Eigen::Vector3d> dr_;  ///< dead-reckoned position at each nav_ sample
+  // Velocity filter: rows (position, velocity), one column per axis; the covariance is the
+  // same for the three axes (same noise, same times).
+  void filter_update(const PlatformFix& fix);
+  bool kf_init_{false};
+  double kf_t_{0.0};
+  Eigen::Matrix<double, 2, 3> kf_x_{Eigen::Matrix<double, 2, 3>::Zero()};
+  Eigen::Matrix2d kf_P_{Eigen::Matrix2d::Identity()};
+  int kf_outliers_in_row_{0};
+  int total_fixes_{0};
+  int rejected_fixes_{0};
   std::deque<PlatformFix> fixes_;
   int streak_{0};
   double last_detection_t_;

@@ -1,0 +1,135 @@
+// Observe follows a fast platform; search after a loss flies to the tracker's prediction;
+// the final descent touches down softly. Closed loop on the rigid-body model of support/
+// (perfect navigation, synthetic 30 Hz vision with noise and latency).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+#include <limits>
+
+#include "support/hex_model.h"
+
+namespace lander::ctl::test {
+namespace {
+
+// The cart speed of scenarios/cart_1mps_turning.yaml (m/s).
+constexpr double kCartSpeed_mps = 1.0;
+// Keeps observe from ever switching to approach, so the follow behaviour is tested alone.
+constexpr int kNeverApproach = 1000000;
+// Once caught up, observe keeps the vehicle this close to the platform (m): at 9 m above
+// the top the view along body x reaches ~5 m; 0.5 m is a tenth of it, so the platform stays
+// near the image centre (the old 1 m/s follow stayed ~4 m behind, at the edge).
+constexpr double kObserveFollowError_m = 0.5;
+// After 3 s of blind extrapolation at 1 m/s, search brings the vehicle within this distance
+// of the platform (m): the velocity estimate from ~1 s of fixes is good to a few cm/s (a few
+// tenths of a metre after 3 s) plus the lag of the position loop; holding position instead
+// would leave it 3 m or more behind.
+constexpr double kSearchPredictionError_m = 1.0;
+// Horizontal speed below which the vehicle counts as holding position (m/s).
+constexpr double kHoldSpeed_mps = 0.1;
+// Relative speed at touchdown the team asked for (~0.3 m/s); the descent at
+// descent_rate_final_mps (0.15 m/s) plus the fall from below cut_height_m (1.5 cm) with the
+// rotors spinning down stays under it.
+constexpr double kSoftTouchdown_mps = 0.4;
+
+LandingRunConfig fast_cart_config() {
+  LandingRunConfig cfg;
+  cfg.platform.p0_W_m = Eigen::Vector3d(0.0, 0.0, 0.8);
+  cfg.platform.v_W_mps = Eigen::Vector3d(kCartSpeed_mps, 0.0, 0.0);
+  // 4 m behind at 10 m: the platform starts inside the 29 deg half-angle along body x.
+  cfg.start_W_m = Eigen::Vector3d(-4.0, 0.0, 10.0);
+  cfg.controller.landing.observe_frames = kNeverApproach;
+  return cfg;
+}
+
+double horizontal_distance(const HexModel& m, const PlatformTruth& plat, double t_s) {
+  return (m.p - plat.p_W(t_s)).head<2>().norm();
+}
+
+TEST(ObserveFollow, KeepsUpWithAOneMetrePerSecondPlatform) {
+  LandingRunConfig cfg = fast_cart_config();
+  cfg.max_time_s = 16.0;
+  double max_err_late = 0.0;
+  double err_at_acq = -1.0;
+  const PlatformTruth plat = cfg.platform;
+  cfg.on_step = [&](double t, const HexModel& m, const LandingController& c) {
+    if (err_at_acq < 0 && c.mode() == Mode::kObserve) err_at_acq = horizontal_distance(m, plat, t);
+    if (t > 10.0) max_err_late = std::max(max_err_late, horizontal_distance(m, plat, t));
+  };
+  const LandingRunResult r = run_landing(cfg);
+  SCOPED_TRACE(r.describe());
+  std::cout << r.describe() << "distance at acquisition " << err_at_acq
+            << " m, max distance after 10 s " << max_err_late << " m\n";
+  ASSERT_FALSE(r.transitions.empty());
+  EXPECT_EQ(r.transitions.front().to, Mode::kObserve);
+  EXPECT_GT(err_at_acq, 3.0);  // the test starts far behind: there is something to catch up
+  // Acquired once and never lost.
+  EXPECT_EQ(r.transitions.size(), 1u);
+  EXPECT_LT(max_err_late, kObserveFollowError_m);
+}
+
+TEST(SearchAfterLoss, FliesToThePredictedPlatformInsteadOfHolding) {
+  LandingRunConfig cfg = fast_cart_config();
+  cfg.max_time_s = 14.0;
+  // Caught up by 10 s (test above); then blind for 4 s: observe declares the loss after
+  // loss_timeout_s (1 s) and search has ~3 s to fly after the prediction.
+  constexpr double kBlindFrom_s = 10.0;
+  cfg.visible = [&](double t, const Eigen::Isometry3d&) { return t < kBlindFrom_s; };
+  const PlatformTruth plat = cfg.platform;
+  double err_end = std::numeric_limits<double>::infinity();
+  double search_speed = 0.0;
+  Mode mode_end = Mode::kObserve;
+  cfg.on_step = [&](double t, const HexModel& m, const LandingController& c) {
+    err_end = horizontal_distance(m, plat, t);
+    search_speed = m.v.head<2>().norm();
+    mode_end = c.mode();
+  };
+  const LandingRunResult r = run_landing(cfg);
+  SCOPED_TRACE(r.describe());
+  std::cout << r.describe() << "distance after 3 s of search " << err_end << " m, speed "
+            << search_speed << " m/s\n";
+  ASSERT_EQ(r.transitions.size(), 2u);
+  EXPECT_EQ(r.transitions[1].from, Mode::kObserve);
+  EXPECT_EQ(r.transitions[1].to, Mode::kSearch);
+  EXPECT_NE(r.transitions[1].reason.find("lost"), std::string::npos);
+  EXPECT_EQ(mode_end, Mode::kSearch);
+  EXPECT_LT(err_end, kSearchPredictionError_m);
+  // It moves with the predicted cart, it does not hold.
+  EXPECT_NEAR(search_speed, kCartSpeed_mps, 0.3);
+}
+
+TEST(SearchAfterLoss, HoldsOnceThePredictionIsTooOld) {
+  LandingRunConfig cfg = fast_cart_config();
+  cfg.controller.landing.search_predict_max_s = 2.0;
+  cfg.max_time_s = 20.0;
+  constexpr double kBlindFrom_s = 10.0;
+  cfg.visible = [&](double t, const Eigen::Isometry3d&) { return t < kBlindFrom_s; };
+  double speed_end = 1e9;
+  int fixes_end = -1;
+  cfg.on_step = [&](double, const HexModel& m, const LandingController& c) {
+    speed_end = m.v.head<2>().norm();
+    fixes_end = c.tracker().num_fixes();
+  };
+  const LandingRunResult r = run_landing(cfg);
+  SCOPED_TRACE(r.describe());
+  // 2 s after the last detection the history is dropped; 8 s later the vehicle holds.
+  EXPECT_EQ(fixes_end, 0);
+  EXPECT_LT(speed_end, kHoldSpeed_mps);
+}
+
+TEST(SoftTouchdown, RelativeSpeedAtContactIsAboutAThirdOfAMetrePerSecond) {
+  LandingRunConfig cfg;
+  cfg.platform.p0_W_m = Eigen::Vector3d(0.0, 0.0, 0.8);
+  cfg.platform.v_W_mps = Eigen::Vector3d(0.5, 0.0, 0.0);
+  cfg.start_W_m = Eigen::Vector3d(-5.0, 0.0, 10.0);
+  const LandingRunResult r = run_landing(cfg);
+  SCOPED_TRACE(r.describe());
+  std::cout << r.describe();
+  ASSERT_TRUE(r.contact);
+  EXPECT_TRUE(r.on_platform);
+  EXPECT_LT(r.touchdown_rel_speed_mps, kSoftTouchdown_mps);
+}
+
+}  // namespace
+}  // namespace lander::ctl::test
