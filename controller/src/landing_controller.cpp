@@ -380,11 +380,15 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       const double rate = h < L.final_hold_height_m ? L.descent_rate_final_mps
                           : near                    ? L.descent_rate_near_mps
                                                     : L.descent_rate_mps;
-      // Final decimetres: below final_hold_height_m go on into contact only when aligned to
-      // the touchdown criterion; between it and twice it wait low (final_wait_gap_m), so the
-      // dash into contact once aligned is short (a stop-and-go cart is steady for ~2 s); climb
-      // back to final_hold_height_m when the error exceeds twice the criterion.
-      const bool aligned = e_xy < L.touchdown_error_m;
+      // Final decimetres: below final_hold_height_m go on into contact only while within
+      // final_descent_error_m and moving with the platform (the skids may meet the top
+      // before the cut, and the error at first contact is the landing's); otherwise wait low (final_wait_gap_m), so the dash
+      // into contact once aligned is short (a stop-and-go cart is steady for ~2 s); climb
+      // back to final_hold_height_m when the error exceeds twice the touchdown criterion.
+      Eigen::Vector3d v_rel_vision;
+      const bool aligned = e_xy < L.final_descent_error_m &&
+                           tracker_.relative_velocity(&v_rel_vision) &&
+                           horizontal(v_rel_vision) < L.final_descent_rel_speed_mps;
       // The height is servoed like the horizontal position: on the gear clearance measured by
       // vision (h_sp - h), so steps of the navigation height (baro / GPS) cancel.
       const double h_floor = (aligned || h > L.final_hold_height_m) ? L.final_hover_gap_m

@@ -98,6 +98,9 @@ void LandingParams::validate() const {
   require(gear_height_m >= 0, "gear_height_m", "must be >= 0");
   require(cut_height_m > 0, "cut_height_m", "must be > 0");
   require(touchdown_error_m > 0, "touchdown_error_m", "must be > 0");
+  require(final_descent_error_m > 0 && final_descent_error_m <= touchdown_error_m,
+          "final_descent_error_m", "must be in (0, touchdown_error_m]");
+  require(final_descent_rel_speed_mps > 0, "final_descent_rel_speed_mps", "must be > 0");
   require(max_touchdown_rel_speed_mps > 0, "max_touchdown_rel_speed_mps", "must be > 0");
   require(steady_window_s > 0, "steady_window_s", "must be > 0");
   require(steady_tilt_deg > 0, "steady_tilt_deg", "must be > 0");

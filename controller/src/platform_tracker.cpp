@@ -228,14 +228,22 @@ Eigen::Vector3d PlatformTracker::position_now(double t_s) const {
   return p + velocity() * std::max(0.0, t_s - f.t_s);
 }
 
-Eigen::Vector3d PlatformTracker::relative_now(double t_s) const {
-  const PlatformFix& last = latest();
-  // Line fit r = a + b (t - t_last) of the recent relative vectors; a is the smoothed r.
+// Line fit r = a + b (t - t_last) of the recent relative vectors (platform minus vehicle):
+// the fixes of the last relative_window_s, or the last 3 when fewer (blur) as long as they
+// are within 4 windows. a is the smoothed relative vector at the last fix, b its rate.
+bool PlatformTracker::relative_fit(Eigen::Vector3d* a, Eigen::Vector3d* b) const {
+  if (fixes_.empty()) return false;
+  const double t_last = fixes_.back().t_s;
+  double t_from = t_last - p_.relative_window_s;
+  if (fixes_.size() >= 3) {
+    t_from = std::min(t_from, std::max(fixes_[fixes_.size() - 3].t_s,
+                                       t_last - 4.0 * p_.relative_window_s));
+  }
   double s0 = 0, s1 = 0, s2 = 0;
   Eigen::Vector3d sr = Eigen::Vector3d::Zero(), str = Eigen::Vector3d::Zero();
   for (const PlatformFix& f : fixes_) {
-    if (f.t_s < last.t_s - p_.relative_window_s) continue;
-    const double d = f.t_s - last.t_s;
+    if (f.t_s < t_from) continue;
+    const double d = f.t_s - t_last;
     s0 += 1;
     s1 += d;
     s2 += d * d;
@@ -243,11 +251,24 @@ Eigen::Vector3d PlatformTracker::relative_now(double t_s) const {
     str += d * f.p_BP_W_m;
   }
   const double det = s0 * s2 - s1 * s1;
-  const Eigen::Vector3d r_last =
-      (s0 >= 3 && det > 1e-12) ? Eigen::Vector3d((s2 * sr - s1 * str) / det) : last.p_BP_W_m;
+  if (s0 < 3 || det <= 1e-12) return false;
+  *a = (s2 * sr - s1 * str) / det;
+  *b = (s0 * str - s1 * sr) / det;
+  return true;
+}
+
+Eigen::Vector3d PlatformTracker::relative_now(double t_s) const {
+  const PlatformFix& last = latest();
+  Eigen::Vector3d r_last, rate;
+  if (!relative_fit(&r_last, &rate)) r_last = last.p_BP_W_m;
   // The vehicle's displacement since the fix, dead-reckoned (no GPS correction steps).
   const Eigen::Vector3d vehicle_moved = dead_reckoned_at(t_s) - dead_reckoned_at(last.t_s);
   return r_last + velocity() * std::max(0.0, t_s - last.t_s) - vehicle_moved;
+}
+
+bool PlatformTracker::relative_velocity(Eigen::Vector3d* v_rel) const {
+  Eigen::Vector3d a;
+  return relative_fit(&a, v_rel);
 }
 
 Eigen::Vector3d PlatformTracker::predict(double t_s) const {

@@ -119,3 +119,39 @@ TEST(Cli, UnknownOptionIsNamed) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(Cli, BatchWithABadSeedCountIsNamedAndNothingIsWritten) {
+  const std::string dir = temp_dir();
+  const std::string scen = std::string(LANDER_SCENARIOS_DIR) + "/default.yaml";
+  for (const char* bad : {"abc", "1.5", "0", "-3"}) {
+    const auto r = run_lander("batch " + scen + " --seeds " + bad + " --out " + dir + "/out");
+    EXPECT_EQ(r.code, 2) << bad;
+    EXPECT_NE(r.output.find("--seeds"), std::string::npos) << r.output;
+  }
+  const auto missing = run_lander("batch " + scen + " --out " + dir + "/out");
+  EXPECT_EQ(missing.code, 2);
+  EXPECT_NE(missing.output.find("--seeds"), std::string::npos) << missing.output;
+  EXPECT_FALSE(exists(dir + "/out"));
+}
+
+TEST(Cli, BatchOfAScriptedFlightIsRefused) {
+  const std::string dir = temp_dir();
+  const auto r = run_lander("batch " + std::string(LANDER_SCENARIOS_DIR) +
+                            "/flyover.yaml --seeds 2 --out " + dir + "/out");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("closed_loop"), std::string::npos) << r.output;
+  EXPECT_FALSE(exists(dir + "/out"));
+}
+
+TEST(Cli, RunWithANegativeSeedIsNamed) {
+  const std::string dir = temp_dir();
+  const auto r = run_lander("run " + std::string(LANDER_SCENARIOS_DIR) +
+                            "/default.yaml --seed -1 --out " + dir + "/out");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("--seed"), std::string::npos) << r.output;
+  EXPECT_FALSE(exists(dir + "/out"));
+}
+
+}  // namespace

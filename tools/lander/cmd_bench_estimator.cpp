@@ -33,8 +33,8 @@ int bench_estimator(const Args& args) {
     bp.yaws_per_view = 1;
     bp.empty_frames = 50;
   }
-  if (a.has("empty-frames")) bp.empty_frames = std::stoi(a.value("empty-frames"));
-  if (a.has("yaws")) bp.yaws_per_view = std::stoi(a.value("yaws"));
+  bp.empty_frames = static_cast<int>(a.integer("empty-frames", bp.empty_frames, 0));
+  bp.yaws_per_view = static_cast<int>(a.integer("yaws", bp.yaws_per_view, 1));
   bp.validate();
   sim::World world(s.world, s.camera.intrinsics);
   const CameraModel& cam = s.camera.intrinsics;

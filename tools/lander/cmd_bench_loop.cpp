@@ -17,7 +17,7 @@ int bench_loop(const Args& args) {
   ArgParser a(args, {"json", "scenario", "duration", "out"}, {});
   if (!a.has("json")) throw UsageError("usage: lander bench loop --json FILE [--scenario FILE]");
   sim::Scenario s = sim::Scenario::load(a.value("scenario", std::string(LANDER_SCENARIOS_DIR) + "/default.yaml"));
-  if (a.has("duration")) s.duration_s = std::stod(a.value("duration"));
+  s.duration_s = a.number("duration", s.duration_s, 0.1);
   s.validate();
   sim::RunOptions o;
   o.out_dir = a.value("out", "/tmp/lander_bench_loop");

@@ -24,11 +24,11 @@ double median(std::vector<double> v) {
 int bench_render(const Args& args) {
   ArgParser a(args, {"json", "frames", "backend", "msaa", "scenario"}, {"shadows"});
   if (!a.has("json")) throw UsageError("usage: lander bench render --json FILE [--frames N]");
-  const int n = std::stoi(a.value("frames", "300"));
+  const int n = static_cast<int>(a.integer("frames", 300, 1));
   if (n < 1) throw UsageError("--frames must be >= 1");
   sim::Scenario s = sim::Scenario::load(a.value("scenario", std::string(LANDER_SCENARIOS_DIR) + "/default.yaml"));
   s.render.backend = a.value("backend", s.render.backend);
-  s.render.msaa_samples = std::stoi(a.value("msaa", std::to_string(s.render.msaa_samples)));
+  s.render.msaa_samples = static_cast<int>(a.integer("msaa", s.render.msaa_samples, 0));
   s.render.shadows = s.render.shadows || a.flag("shadows");
   s.validate();
   sim::World world(s.world, s.camera.intrinsics);

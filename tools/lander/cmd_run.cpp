@@ -8,10 +8,14 @@ namespace lander::cli {
 namespace {
 
 int run(const Args& args) {
-  ArgParser a(args, {"out"}, {"video", "quiet"});
-  if (a.positional().size() != 1) throw UsageError("usage: lander run SCENARIO.yaml --out DIR [--video]");
+  ArgParser a(args, {"out", "seed"}, {"video", "quiet"});
+  if (a.positional().size() != 1) {
+    throw UsageError("usage: lander run SCENARIO.yaml --out DIR [--seed N] [--video] [--quiet]");
+  }
   if (!a.has("out")) throw UsageError("missing --out DIR");
-  const sim::Scenario s = sim::Scenario::load(a.positional()[0]);
+  sim::Scenario s = sim::Scenario::load(a.positional()[0]);
+  // --seed replaces the scenario's seed (written to scenario.resolved.yaml).
+  s.seed = static_cast<std::uint64_t>(a.integer("seed", static_cast<long long>(s.seed), 0));
   sim::RunOptions o;
   o.out_dir = a.value("out");
   o.video = a.flag("video");
@@ -25,7 +29,9 @@ int run(const Args& args) {
   return (scripted || (landed && landed->boolean())) ? kExitOk : kExitFailure;
 }
 
-const LanderCommand reg("run", "run SCENARIO.yaml --out DIR [--video] [--quiet]: run one scenario",
+const LanderCommand reg("run",
+                        "run SCENARIO.yaml --out DIR [--seed N] [--video] [--quiet]: run one "
+                        "scenario",
                         Kind::Command, run);
 
 }  // namespace

@@ -43,6 +43,11 @@ class ArgParser {
   bool flag(const std::string& name) const;
   std::string value(const std::string& name, const std::string& fallback = "") const;
   bool has(const std::string& name) const;
+  // `--name` as a whole number >= min (fallback when absent); UsageError naming the option
+  // when it is not one ("--seeds abc", "--seeds 1.5", "--seeds -2").
+  long long integer(const std::string& name, long long fallback, long long min) const;
+  // `--name` as a finite number >= min (fallback when absent); UsageError naming the option.
+  double number(const std::string& name, double fallback, double min) const;
 
  private:
   std::vector<std::string> positional_;

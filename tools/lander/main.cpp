@@ -1,5 +1,6 @@
 // The `lander` command line: dispatches to the subcommands registered in cmd_*.cpp.
 #include <algorithm>
+#include <cmath>
 #include <iostream>
 
 #include "command.h"
@@ -49,6 +50,44 @@ std::string ArgParser::value(const std::string& name, const std::string& fallbac
     if (kv.first == name) return kv.second;
   }
   return fallback;
+}
+
+long long ArgParser::integer(const std::string& name, long long fallback, long long min) const {
+  if (!has(name)) return fallback;
+  const std::string v = value(name);
+  std::size_t used = 0;
+  long long x = 0;
+  try {
+    x = std::stoll(v, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != v.size()) {
+    throw UsageError("option --" + name + ": '" + v + "' is not a whole number");
+  }
+  if (x < min) {
+    throw UsageError("option --" + name + ": " + v + " must be >= " + std::to_string(min));
+  }
+  return x;
+}
+
+double ArgParser::number(const std::string& name, double fallback, double min) const {
+  if (!has(name)) return fallback;
+  const std::string v = value(name);
+  std::size_t used = 0;
+  double x = 0;
+  try {
+    x = std::stod(v, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != v.size() || !std::isfinite(x)) {
+    throw UsageError("option --" + name + ": '" + v + "' is not a number");
+  }
+  if (x < min) {
+    throw UsageError("option --" + name + ": " + v + " must be >= " + std::to_string(min));
+  }
+  return x;
 }
 
 namespace {

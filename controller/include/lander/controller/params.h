@@ -104,7 +104,8 @@ struct TrackerParams {
   double platform_accel_noise_mps2{0.7};///< velocity filter: white-noise acceleration of the
                                         ///< platform (m/s^2); a cart pulled by a person
                                         ///< speeds up and brakes at ~0.6 m/s^2
-  double fix_noise_m{0.02};             ///< velocity filter: fix noise at zero range (m)
+  double fix_noise_m{0.005};            ///< velocity filter: fix noise at zero range (m); 2 cm
+                                        ///< made the filter lag a braking cart near the top
   double fix_noise_per_m{0.01};         ///< ... growing with the range (m per m): ~0.6 deg of
                                         ///< attitude and vision error seen from the vehicle
   double fix_gate_sigma{5.0};           ///< a fix this many sigma off the filter's prediction
@@ -162,6 +163,17 @@ struct LandingParams {
                                           ///< only while |error| < touchdown_error_m (else
                                           ///< wait at final_wait_gap_m); climb back to it
                                           ///< when |error| > 2 touchdown_error_m (m)
+  double final_descent_error_m{0.03};     ///< below final_hold_height_m descend on into contact
+                                          ///< only while |error| < this (m): tighter than
+                                          ///< touchdown_error_m because the skids may meet
+                                          ///< the top before the cut, and the error at first
+                                          ///< contact is what counts (3 cm leaves 2 cm for the
+                                          ///< drift of the last centimetres; 5 cm gave 5.4 cm)
+  double final_descent_rel_speed_mps{0.15};///< ... and while the horizontal speed relative to
+                                          ///< the platform (the rate of the relative vector
+                                          ///< seen by vision) is below this (m/s): a braking
+                                          ///< cart (0.6 m/s^2) ran 8 cm ahead of a vehicle
+                                          ///< committed to the last 3 cm of descent
   double final_wait_gap_m{0.10};          ///< below final_hold_height_m with an error between
                                           ///< touchdown_error_m and twice it: wait at this
                                           ///< gear clearance (m); 5 cm let a tilted skid touch
@@ -239,6 +251,8 @@ void visit_fields(V& v, LandingParams& p) {
   v("descent_gate_near_m", p.descent_gate_near_m);
   v("final_hover_gap_m", p.final_hover_gap_m);
   v("final_hold_height_m", p.final_hold_height_m);
+  v("final_descent_error_m", p.final_descent_error_m);
+  v("final_descent_rel_speed_mps", p.final_descent_rel_speed_mps);
   v("final_wait_gap_m", p.final_wait_gap_m);
   v("recovery_max_carrot_m", p.recovery_max_carrot_m);
   v("servo_ki", p.servo_ki);

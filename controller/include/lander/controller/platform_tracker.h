@@ -80,6 +80,11 @@ class PlatformTracker {
   // cancels out.
   Eigen::Vector3d relative_now(double t_s) const;
 
+  // Rate of the relative vector at the last fix (platform velocity minus vehicle velocity,
+  // W axes, m/s), straight from vision: the slope of the line fit relative_now() smooths
+  // with (relative_window_s, at least 3 fixes). False with too few fixes.
+  bool relative_velocity(Eigen::Vector3d* v_rel) const;
+
   // Predicted platform position at t_s (eq. 28 without epsilon): the polynomial up to
   // max_poly_extrapolation_s past the last fix, continued linearly beyond, and its distance
   // from the last fix bounded by platform_max_speed_mps * horizon.
@@ -106,6 +111,7 @@ class PlatformTracker {
 
  private:
   bool local_position(Eigen::Vector3d* p_last) const;
+  bool relative_fit(Eigen::Vector3d* a, Eigen::Vector3d* b) const;
 
   TrackerParams p_;
   Eigen::Isometry3d X_BC_;
