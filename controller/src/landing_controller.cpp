@@ -41,6 +41,10 @@ constexpr double kMaxClearanceStepDown_m = 0.5;
 // Gain of the observe catch-up velocity on the remaining gap near the platform (1/s): below
 // the position loop's 1.3 1/s so the follow point does not chase vision noise.
 constexpr double kFollowGain_per_s = 1.0;
+// Time constant of the low-pass on the platform's vertical velocity fed forward in recovery
+// (s): longer than the velocity filter's noise (tenths of a second), shorter than the drift
+// of the navigation's vertical velocity error (seconds).
+constexpr double kPlatformVzFilter_s = 0.5;
 
 }  // namespace
 
@@ -150,6 +154,7 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
     case Mode::kRecovery:
       recovery_h_sp_ = diag_.gear_clearance_m;
       servo_int_.setZero();
+      platform_vz_lp_ = diag_.platform_v_W_mps.z();
       break;
     case Mode::kTouchdown:
       cut_t_ = t_s;
@@ -429,7 +434,16 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       sp.p_W_m.z() = nav.p_W_m.z() + (recovery_h_sp_ - h);
       // (No acceleration feed-forward: the acceleration of the fit, from fixes that carry the
       // navigation position's GPS steps, doubled the attitude noise in the real loop.)
-      sp.v_W_mps = Eigen::Vector3d(diag_.platform_v_W_mps.x(), diag_.platform_v_W_mps.y(), vz_ff);
+      // The platform velocity is fed forward on all three axes: it is estimated against the
+      // dead-reckoned vehicle, so it carries the navigation velocity's error, which then
+      // cancels in the velocity loop (a baro/GPS-corrected vertical velocity 0.1 m/s slow made
+      // the last 30 cm of descent twice the commanded rate without the vertical term). The
+      // vertical part is low-passed: a cart's top does not move vertically, what is left is
+      // that slowly changing navigation error, and the filter's noise would reach the thrust.
+      platform_vz_lp_ += (diag_.platform_v_W_mps.z() - platform_vz_lp_) *
+                         std::min(1.0, dt / kPlatformVzFilter_s);
+      sp.v_W_mps = Eigen::Vector3d(diag_.platform_v_W_mps.x(), diag_.platform_v_W_mps.y(),
+                                   platform_vz_lp_ + vz_ff);
       return sp;
     }
 

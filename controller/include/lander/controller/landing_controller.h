@@ -135,6 +135,7 @@ class LandingController {
   CubicTrajectory approach_;
   double recovery_h_sp_{0.0};  // recovery: gear-clearance setpoint above the top (m)
   Eigen::Vector2d servo_int_{Eigen::Vector2d::Zero()};  // visual-servo integral (m)
+  double platform_vz_lp_{0.0};  // platform vertical velocity, low-passed (m/s), recovery
   double cut_t_{0.0};
   double contact_accum_s_{0.0};
   double last_inner_t_{0.0};
