@@ -98,6 +98,32 @@ bool LandingController::follow_prediction(double t_s, Setpoint* sp) {
   return true;
 }
 
+void LandingController::search_spiral(double t_spiral_s, Setpoint* sp) const {
+  const LandingParams& L = p_.landing;
+  if (L.search_spiral_speed_mps <= 0.0 || t_spiral_s <= 0.0) return;
+  // Archimedean spiral r = b theta around the hold point, flown at constant speed: the arc
+  // length from the centre is ~ b theta^2 / 2, so theta = sqrt(2 s / b). Beyond the maximum
+  // radius it goes on around the circle.
+  const double b = L.search_spiral_spacing_m / (2.0 * M_PI);
+  const double s = L.search_spiral_speed_mps * t_spiral_s;
+  const double theta_max = L.search_max_radius_m / b;
+  const double s_max = 0.5 * b * theta_max * theta_max;
+  double theta = 0.0, r = 0.0;
+  if (s < s_max) {
+    theta = std::sqrt(2.0 * s / b);
+    r = b * theta;
+  } else {
+    r = L.search_max_radius_m;
+    theta = theta_max + (s - s_max) / r;
+  }
+  const Eigen::Vector2d radial(std::cos(theta), std::sin(theta));
+  const Eigen::Vector2d tangential(-std::sin(theta), std::cos(theta));
+  sp->p_W_m.head<2>() = hold_p_.head<2>() + r * radial;
+  // Velocity along the curve: d/dtheta of r(theta) e_r is b e_r + r e_t (b = 0 on the circle).
+  Eigen::Vector2d dir = (s < s_max ? b : 0.0) * radial + r * tangential;
+  if (dir.norm() > 1e-9) sp->v_W_mps.head<2>() = L.search_spiral_speed_mps * dir.normalized();
+}
+
 Setpoint LandingController::hold(const Eigen::Vector3d& p) const {
   Setpoint sp;
   sp.p_W_m = p;
@@ -230,7 +256,9 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       // half-angle along body x.
       yaw_hold_ = std::remainder(
           search_yaw0_ + L.search_yaw_rate_degps * M_PI / 180.0 * (t_s - search_t0_), 2 * M_PI);
-      return hold(hold_p_);
+      Setpoint s2 = hold(hold_p_);
+      search_spiral(t_s - search_t0_ - L.search_spiral_after_s, &s2);
+      return s2;
     }
 
     case Mode::kObserve: {

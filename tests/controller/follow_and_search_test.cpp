@@ -133,3 +133,36 @@ TEST(SoftTouchdown, RelativeSpeedAtContactIsAboutAThirdOfAMetrePerSecond) {
 
 }  // namespace
 }  // namespace lander::ctl::test
+
+namespace lander::ctl::test {
+namespace {
+
+// A platform standing 16 m from where the vehicle starts at 10 m is outside the view in
+// every heading (the wide image axis reaches ~10 m). Sweeping the heading in place never
+// finds it; the outward spiral that follows one full turn does.
+TEST(Search, SpiralFindsAPlatformOutOfViewOfTheStart) {
+  LandingRunConfig cfg;
+  cfg.platform.p0_W_m = Eigen::Vector3d(12.0, -10.5, 0.8);
+  cfg.platform.v_W_mps.setZero();
+  cfg.start_W_m = Eigen::Vector3d(0.0, 0.0, 10.0);
+  cfg.controller.landing.observe_frames = kNeverApproach;
+  cfg.max_time_s = 120.0;
+  const LandingRunResult r = run_landing(cfg);
+  SCOPED_TRACE(r.describe());
+  std::cout << r.describe();
+  ASSERT_FALSE(r.transitions.empty());
+  EXPECT_EQ(r.transitions.front().to, Mode::kObserve);
+  // Not during the in-place sweep: the spiral found it.
+  EXPECT_GT(r.transitions.front().t_s, cfg.controller.landing.search_spiral_after_s);
+
+  // The same without the spiral: never acquired.
+  LandingRunConfig hold = cfg;
+  hold.controller.landing.search_spiral_speed_mps = 0.0;
+  hold.max_time_s = 60.0;
+  const LandingRunResult h = run_landing(hold);
+  SCOPED_TRACE(h.describe());
+  EXPECT_TRUE(h.transitions.empty());
+}
+
+}  // namespace
+}  // namespace lander::ctl::test

@@ -110,6 +110,9 @@ class LandingController {
   bool in_view(double t_s, double timeout_s) const;
   double platform_z() const;  // last known platform height, or 0 (ground)
   Setpoint hold(const Eigen::Vector3d& p) const;
+  // Search with nothing to predict from, t_spiral_s after the in-place heading sweep: moves
+  // the setpoint along an outward spiral around hold_p_ (no-op before it starts).
+  void search_spiral(double t_spiral_s, Setpoint* sp) const;
   // Search / go-around after a loss: sets sp's horizontal position (and hold_p_) to the
   // tracker's prediction of the platform now and its velocity as feed-forward; returns false
   // (and drops the history) when there is no fix or the last is older than

@@ -220,6 +220,13 @@ struct LandingParams {
   double search_min_height_m{2.0};        ///< search/hold at least this high above ground (m)
   double search_yaw_rate_degps{20.0};     ///< heading sweep while searching, so the wide image
                                           ///< axis scans around the vehicle (deg/s), 0 = off
+  double search_spiral_after_s{18.0};     ///< with nothing to predict from: after this long
+                                          ///< sweeping the heading in place (one turn at
+                                          ///< 20 deg/s), fly an outward spiral (s)
+  double search_spiral_spacing_m{8.0};    ///< distance between the spiral's turns (m): the
+                                          ///< camera's narrow-axis footprint at 8-10 m is ~10 m
+  double search_spiral_speed_mps{1.5};    ///< speed along the spiral (m/s); 0 = hold in place
+  double search_max_radius_m{30.0};       ///< the spiral becomes a circle at this radius (m)
   double observe_follow_max_speed_mps{2.0};///< catch-up speed of the observe follow point
                                           ///< relative to the platform, on top of its fed-
                                           ///< forward velocity (m/s): a 1 m/s cart acquired
@@ -279,6 +286,10 @@ void visit_fields(V& v, LandingParams& p) {
   v("go_around_height_m", p.go_around_height_m);
   v("search_min_height_m", p.search_min_height_m);
   v("search_yaw_rate_degps", p.search_yaw_rate_degps);
+  v("search_spiral_after_s", p.search_spiral_after_s);
+  v("search_spiral_spacing_m", p.search_spiral_spacing_m);
+  v("search_spiral_speed_mps", p.search_spiral_speed_mps);
+  v("search_max_radius_m", p.search_max_radius_m);
   v("observe_follow_max_speed_mps", p.observe_follow_max_speed_mps);
   v("observe_follow_max_accel_mps2", p.observe_follow_max_accel_mps2);
   v("search_predict_max_s", p.search_predict_max_s);
