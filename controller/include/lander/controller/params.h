@@ -218,11 +218,14 @@ struct LandingParams {
                                           ///< -> go-around (m)
   double go_around_height_m{6.0};         ///< climb to this height above the top (m)
   double search_min_height_m{2.0};        ///< search/hold at least this high above ground (m)
-  double search_yaw_rate_degps{20.0};     ///< heading sweep while searching, so the wide image
-                                          ///< axis scans around the vehicle (deg/s), 0 = off
-  double search_spiral_after_s{18.0};     ///< with nothing to predict from: after this long
+  double search_yaw_rate_degps{45.0};     ///< heading sweep while searching, so the wide image
+                                          ///< axis scans around the vehicle (deg/s), 0 = off;
+                                          ///< 20 deg/s took 4.5 s to bring the wide axis onto
+                                          ///< a 1 m/s cart first seen at the narrow edge, and
+                                          ///< it had left the view by then
+  double search_spiral_after_s{8.0};      ///< with nothing to predict from: after this long
                                           ///< sweeping the heading in place (one turn at
-                                          ///< 20 deg/s), fly an outward spiral (s)
+                                          ///< 45 deg/s), fly an outward spiral (s)
   double search_spiral_spacing_m{8.0};    ///< distance between the spiral's turns (m): the
                                           ///< camera's narrow-axis footprint at 8-10 m is ~10 m
   double search_spiral_speed_mps{1.5};    ///< speed along the spiral (m/s); 0 = hold in place
