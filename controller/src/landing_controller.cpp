@@ -30,10 +30,10 @@ constexpr double kGoAroundReachedBand_m = 0.3;
 // Below this horizontal distance the bearing to the platform is dominated by vision noise and
 // the platform is near the image centre anyway: the heading is no longer aligned (m).
 constexpr double kAlignMinDistance_m = 1.5;
-// Fixes before the platform velocity is fed forward in observe: the local fit needs 3, and 6
-// (0.2 s at 30 Hz, the quadratic of PlatformTracker::velocity) keep a few centimetres of
-// noise from making a velocity of metres per second. A 1 m/s cart acquired at the edge of the
-// view leaves it within ~1 s unless the follow starts at once, so this must stay small.
+// Fixes before the platform velocity is fed forward in observe: the velocity filter starts
+// at zero with 1 m/s of uncertainty, and 6 fixes (0.2 s at 30 Hz) keep its first noisy
+// updates out of the follow. A 1 m/s cart acquired at the edge of the view leaves it within
+// ~1 s unless the follow starts at once, so this must stay small.
 constexpr int kMinFixesForFeedForward = 6;
 // In recovery the clearance setpoint stays at most this far below the current clearance (m):
 // bounds the descent speed near the top after a pause of the descent (1.5 1/s * 0.5 m).
