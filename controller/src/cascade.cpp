@@ -24,11 +24,16 @@ CascadeController::CascadeController(const VehicleParams& vehicle, const Cascade
     : v_(vehicle), g_(gains), mixer_(vehicle) {
   g_.validate();
   tilt_limit_deg_ = g_.max_tilt_deg;
+  descent_limit_mps_ = g_.max_vel_down_mps;
   reset();
 }
 
 void CascadeController::set_tilt_limit_deg(double deg) {
   tilt_limit_deg_ = std::clamp(deg, 1.0, g_.max_tilt_deg);
+}
+
+void CascadeController::set_descent_limit_mps(double mps) {
+  descent_limit_mps_ = std::clamp(mps, 0.01, g_.max_vel_down_mps);
 }
 
 void CascadeController::reset() {
@@ -76,7 +81,7 @@ void CascadeController::update_outer(double t_s, const Setpoint& sp, const NavSt
   v_sp.y() += g_.pos_kp_xy * e_p.y();
   v_sp.z() += g_.pos_kp_z * e_p.z();
   v_sp.head<2>() = clamp_norm(v_sp.head<2>(), g_.max_vel_xy_mps);
-  v_sp.z() = std::clamp(v_sp.z(), -g_.max_vel_down_mps, g_.max_vel_up_mps);
+  v_sp.z() = std::clamp(v_sp.z(), -descent_limit_mps_, g_.max_vel_up_mps);
 
   // Velocity PI -> acceleration command (with anti-windup clamp on the integral).
   const Eigen::Vector3d e_v = v_sp - nav.v_W_mps;

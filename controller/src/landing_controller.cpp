@@ -529,6 +529,14 @@ RotorCommand LandingController::step(double t_s, const NavState& nav, const ImuS
         mode_ == Mode::kObserve || mode_ == Mode::kApproach || mode_ == Mode::kRecovery;
     cascade_.set_tilt_limit_deg(tracking ? p_.landing.track_max_tilt_deg
                                          : p_.cascade.max_tilt_deg);
+    // Descent speed near the platform (recovery): bounded whatever the clearance servo asks.
+    double descent_limit = p_.cascade.max_vel_down_mps;
+    if (mode_ == Mode::kRecovery && diag_.gear_clearance_m < p_.landing.final_hold_height_m) {
+      descent_limit = p_.landing.max_descent_final_mps;
+    } else if (mode_ == Mode::kRecovery && diag_.gear_clearance_m < p_.landing.near_height_m) {
+      descent_limit = p_.landing.max_descent_near_mps;
+    }
+    cascade_.set_descent_limit_mps(descent_limit);
     cascade_.update_outer(t_s, last_sp_, nav);
     diag_.setpoint = last_sp_;
   }

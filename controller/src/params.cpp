@@ -101,6 +101,10 @@ void LandingParams::validate() const {
   require(final_descent_error_m > 0 && final_descent_error_m <= touchdown_error_m,
           "final_descent_error_m", "must be in (0, touchdown_error_m]");
   require(final_descent_rel_speed_mps > 0, "final_descent_rel_speed_mps", "must be > 0");
+  require(max_descent_near_mps >= descent_rate_near_mps, "max_descent_near_mps",
+          "must be >= descent_rate_near_mps");
+  require(max_descent_final_mps >= descent_rate_final_mps, "max_descent_final_mps",
+          "must be >= descent_rate_final_mps");
   require(search_spiral_after_s >= 0, "search_spiral_after_s", "must be >= 0");
   require(search_spiral_spacing_m > 0, "search_spiral_spacing_m", "must be > 0");
   require(search_spiral_speed_mps >= 0, "search_spiral_speed_mps", "must be >= 0");

@@ -153,3 +153,29 @@ TEST(Cascade, AttitudeFromThrustPointsBodyZAlongTheForce) {
 
 }  // namespace
 }  // namespace lander::ctl::test
+
+namespace lander::ctl::test {
+namespace {
+
+// The landing controller's descent limit bounds the vertical velocity setpoint whatever the
+// position error asks (2 m below at 1.5 1/s would be 3 m/s, cut to max_vel_down_mps 1.5).
+TEST(Cascade, DescentLimitBoundsTheVerticalVelocitySetpoint) {
+  CascadeController c{VehicleParams{}, CascadeParams{}};
+  NavState nav;
+  nav.valid = true;
+  nav.p_W_m = Eigen::Vector3d(0, 0, 3.0);
+  Setpoint sp;
+  sp.p_W_m = Eigen::Vector3d(0, 0, 1.0);
+  c.update_outer(0.0, sp, nav);
+  EXPECT_NEAR(c.diagnostics().v_sp_W_mps.z(), -CascadeParams{}.max_vel_down_mps, 1e-12);
+  c.set_descent_limit_mps(0.2);
+  c.update_outer(0.04, sp, nav);
+  EXPECT_NEAR(c.diagnostics().v_sp_W_mps.z(), -0.2, 1e-12);
+  // Climbing is not limited by it.
+  sp.p_W_m.z() = 5.0;
+  c.update_outer(0.08, sp, nav);
+  EXPECT_GT(c.diagnostics().v_sp_W_mps.z(), 0.2);
+}
+
+}  // namespace
+}  // namespace lander::ctl::test

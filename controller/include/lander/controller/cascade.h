@@ -58,6 +58,9 @@ class CascadeController {
   // Tilt limit of the thrust vector (deg, in (0, 80)), at most CascadeParams::max_tilt_deg;
   // the landing controller lowers it while the target must stay in the camera's view.
   void set_tilt_limit_deg(double deg);
+  // Descent speed limit of the velocity setpoint (m/s, > 0), at most
+  // CascadeParams::max_vel_down_mps; the landing controller lowers it near the platform.
+  void set_descent_limit_mps(double mps);
 
   const CascadeDiagnostics& diagnostics() const { return diag_; }
   const HexMixer& mixer() const { return mixer_; }
@@ -76,6 +79,7 @@ class CascadeController {
   Eigen::Vector3d force_sp_W_{Eigen::Vector3d::Zero()};
   double yaw_sp_{0.0};
   double tilt_limit_deg_{30.0};
+  double descent_limit_mps_{1.5};
   double last_outer_t_{-1e300};
   double last_inner_t_{-1e300};
   CascadeDiagnostics diag_;

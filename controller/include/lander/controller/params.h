@@ -152,6 +152,11 @@ struct LandingParams {
                                           ///< final_hover_gap_m); slower needs the 5 cm
                                           ///< alignment held longer (0.1 m/s from 0.3 m: 70 s
                                           ///< of retries in default.yaml; now from 0.1 m)
+  double max_descent_near_mps{0.3};       ///< descent speed limit of the velocity setpoint
+                                          ///< in recovery below near_height_m (m/s)
+  double max_descent_final_mps{0.2};      ///< the same below final_hold_height_m (m/s): the
+                                          ///< clearance servo overshot to 0.32 m/s in the
+                                          ///< last 15 cm without it
   double near_height_m{1.0};              ///< gear height above the top where it slows (m)
   double descent_gate_m{0.25};            ///< descend only while |horizontal error| < this (m)
   double descent_gate_near_m{0.10};       ///< the same gate below near_height_m (m)
@@ -256,6 +261,8 @@ void visit_fields(V& v, LandingParams& p) {
   v("descent_rate_mps", p.descent_rate_mps);
   v("descent_rate_near_mps", p.descent_rate_near_mps);
   v("descent_rate_final_mps", p.descent_rate_final_mps);
+  v("max_descent_near_mps", p.max_descent_near_mps);
+  v("max_descent_final_mps", p.max_descent_final_mps);
   v("near_height_m", p.near_height_m);
   v("descent_gate_m", p.descent_gate_m);
   v("descent_gate_near_m", p.descent_gate_near_m);
