@@ -7,10 +7,10 @@ scenario="${1:-scenarios/default.yaml}"
 out="out/renders_$(basename "$scenario" .yaml)"
 ./build/lander run "$scenario" --out "$out" --video --quiet || true  # a failed landing still renders
 mkdir -p renders
-for t in 14 27 ; do
+for t in 10 19 ; do
   ffmpeg -loglevel error -y -ss "$t" -i "$out/camera.mp4" -frames:v 1 "renders/camera_t${t}s.png"
   ffmpeg -loglevel error -y -ss "$t" -i "$out/chase.mp4" -frames:v 1 "renders/chase_t${t}s.png"
 done
-ffmpeg -loglevel error -y -ss 20 -t 10 -i "$out/camera.mp4" -c copy renders/camera_clip.mp4
-ffmpeg -loglevel error -y -ss 20 -t 10 -i "$out/chase.mp4" -c copy renders/chase_clip.mp4
+ffmpeg -loglevel error -y -ss 12 -t 10 -i "$out/camera.mp4" -c copy renders/camera_clip.mp4
+ffmpeg -loglevel error -y -ss 12 -t 10 -i "$out/chase.mp4" -c copy renders/chase_clip.mp4
 echo "renders/ updated from $out"
