@@ -11,16 +11,14 @@
 #include <mujoco/mujoco.h>
 #include <opencv2/imgproc.hpp>
 
+#include "lander/estimator/types.h"
 #include "lander/sim/scenario.h"
 #include "lander/sim/world.h"
 
 namespace lander::sim {
 
 // ZYX angles (roll, pitch, yaw) of R = Rz(yaw) Ry(pitch) Rx(roll).
-inline Eigen::Vector3d rpy_of(const Eigen::Matrix3d& R) {
-  return {std::atan2(R(2, 1), R(2, 2)), std::asin(-std::clamp(R(2, 0), -1.0, 1.0)),
-          std::atan2(R(1, 0), R(0, 0))};
-}
+inline Eigen::Vector3d rpy_of(const Eigen::Matrix3d& R) { return rpy_from_R(R); }
 
 // White text with a dark outline on line `line` of a video frame.
 inline void put_text(cv::Mat& img, const std::string& text, int line) {

@@ -57,14 +57,6 @@ std::uint64_t derive_seed(std::uint64_t scenario_seed, const std::string& stream
   return z ^ (z >> 31);
 }
 
-namespace {
-Eigen::Matrix3d rpy_to_R(const Eigen::Vector3d& rpy) {
-  return (Eigen::AngleAxisd(rpy.z(), Eigen::Vector3d::UnitZ()) *
-          Eigen::AngleAxisd(rpy.y(), Eigen::Vector3d::UnitY()) *
-          Eigen::AngleAxisd(rpy.x(), Eigen::Vector3d::UnitX()))
-      .toRotationMatrix();
-}
-}  // namespace
 
 void scripted_vehicle_state(const VehicleSetup& v, double t, Eigen::Isometry3d& X_WB,
                             Eigen::Vector3d& v_W, Eigen::Vector3d& omega_B) {
@@ -82,11 +74,11 @@ void scripted_vehicle_state(const VehicleSetup& v, double t, Eigen::Isometry3d& 
     // Body rates from the finite rotation over a short interval.
     const double h = 1e-4;
     const Eigen::Vector3d rpy2 = rpy + h * (w[i + 1].rpy_rad - w[i].rpy_rad) / dt;
-    const Eigen::AngleAxisd d(rpy_to_R(rpy).transpose() * rpy_to_R(rpy2));
+    const Eigen::AngleAxisd d(R_from_rpy(rpy).transpose() * R_from_rpy(rpy2));
     omega_B = d.axis() * d.angle() / h;
   }
   X_WB = Eigen::Isometry3d::Identity();
-  X_WB.linear() = rpy_to_R(rpy);
+  X_WB.linear() = R_from_rpy(rpy);
   X_WB.translation() = p;
 }
 

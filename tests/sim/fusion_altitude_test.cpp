@@ -352,7 +352,9 @@ TEST(FusionAltitude, SurvivesPlatformEdgeWithoutSpike) {
   // And the filter knows how good z is: the error stays within 4 of its own sigma.
   constexpr double kConsistencySigmas = 4.0;
   for (std::size_t i = 0; i < r.t.size(); ++i) {
-    if (r.t[i] >= 2.0) EXPECT_LT(std::abs(r.z_err[i]), kConsistencySigmas * r.z_std[i]) << r.t[i];
+    if (r.t[i] >= 2.0) {
+      EXPECT_LT(std::abs(r.z_err[i]), kConsistencySigmas * r.z_std[i]) << r.t[i];
+    }
   }
   std::cout << "platform edge: z deviation from flat run " << dev << " m\n";
   // Height above the surface follows the true jump after the step detector's delay

@@ -9,6 +9,8 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "lander/estimator/types.h"
+
 namespace lander {
 
 // Seed 004 eq. 7: h = f L / l cos(theta) cos(phi).
@@ -35,9 +37,9 @@ inline double height_above_target_m(const Eigen::Isometry3d& X_CP, const Eigen::
 
 // Roll phi and pitch theta (rad) of q_WB in the z-y-x (yaw-pitch-roll) convention, for eq. 7.
 inline void roll_pitch_rad(const Eigen::Quaterniond& q_WB, double* roll, double* pitch) {
-  const Eigen::Matrix3d R = q_WB.toRotationMatrix();
-  *pitch = std::asin(std::clamp(-R(2, 0), -1.0, 1.0));
-  *roll = std::atan2(R(2, 1), R(2, 2));
+  const Eigen::Vector3d rpy = rpy_from_R(q_WB.toRotationMatrix());
+  *roll = rpy.x();
+  *pitch = rpy.y();
 }
 
 }  // namespace lander

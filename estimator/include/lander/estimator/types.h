@@ -16,6 +16,12 @@
 
 namespace lander {
 
+// Roll-pitch-yaw (rad) -> R = Rz(yaw) Ry(pitch) Rx(roll): the z-y-x convention of every
+// rpy_* key and trace column.
+Eigen::Matrix3d R_from_rpy(const Eigen::Vector3d& rpy_rad);
+// The inverse: (roll, pitch, yaw) of R in the same convention, pitch in [-pi/2, pi/2].
+Eigen::Vector3d rpy_from_R(const Eigen::Matrix3d& R);
+
 // Pinhole camera with Brown-Conrady distortion (OpenCV's model and pixel convention: the
 // centre of the top-left pixel is (0, 0)).
 struct CameraModel {
