@@ -11,6 +11,7 @@
 #include <cmath>
 #include <functional>
 #include <iostream>
+#include <limits>
 #include <string>
 
 #include "support/hex_model.h"
@@ -37,6 +38,9 @@ struct KinematicRun {
     return Eigen::Vector3d::Zero();
   };
   std::function<bool(const LandingController&)> stop_when;
+  // When finite: the fused altitude reaches the controller every step, the true height of
+  // the vehicle above the platform top plus this error (m).
+  double fused_altitude_error_m{std::numeric_limits<double>::quiet_NaN()};
   // A sudden displacement of the vehicle (a gust) to apply at this step, zero for none.
   std::function<Eigen::Vector3d(const LandingController&)> push =
       [](const LandingController&) { return Eigen::Vector3d::Zero(); };
@@ -81,6 +85,13 @@ struct KinematicRun {
       ImuSample imu;
       imu.t_s = t;
       imu.accel_B_mps2 = Eigen::Vector3d(0, 0, imu_z);
+      if (std::isfinite(fused_altitude_error_m)) {
+        AltitudeEstimate alt;
+        alt.t_s = t;
+        alt.valid = true;
+        alt.h_surface_m = p.z() - platform.p_W(t).z() + fused_altitude_error_m;
+        ctl.on_altitude(alt);
+      }
       const Mode before = ctl.mode();
       const RotorCommand cmd = ctl.step(t, nav, imu);
       if (before != Mode::kApproach && ctl.mode() == Mode::kApproach &&
@@ -297,6 +308,31 @@ TEST(ModeMachine, GoAroundWhenTheTargetIsLostLowThenLands) {
   EXPECT_EQ(seen.back(), Mode::kLanded);
   EXPECT_TRUE(r.on_platform);
   EXPECT_LT(r.touchdown_offset_m, 0.05);  // the 5 cm
+}
+
+}  // namespace
+}  // namespace lander::ctl::test
+
+namespace lander::ctl::test {
+namespace {
+
+// The cut needs the fused altitude to agree with vision that the skids are at the top. With
+// the fused height reading 10 cm high, the lowest clearance the descent aims at
+// (final_hover_gap_m, -5 cm) never looks like contact to it: no cut. Reading right: the cut.
+TEST(ModeMachine, CutWaitsForTheFusedAltitudeToAgree) {
+  KinematicRun agree;
+  agree.fused_altitude_error_m = 0.0;
+  agree.run();
+  SCOPED_TRACE(describe(agree.transitions));
+  EXPECT_TRUE(agree.landed);
+
+  KinematicRun high;
+  high.fused_altitude_error_m = 0.10;
+  high.max_time_s = 40.0;
+  high.run();
+  SCOPED_TRACE(describe(high.transitions));
+  for (const ModeTransition& tr : high.transitions) EXPECT_NE(tr.to, Mode::kTouchdown);
+  EXPECT_FALSE(high.landed);
 }
 
 }  // namespace
