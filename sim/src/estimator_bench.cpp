@@ -12,6 +12,7 @@
 
 #include <opencv2/calib3d.hpp>
 
+#include "lander/estimator/camera_cv.h"
 #include "lander/estimator/vision_detector.h"
 #include "lander/sim/json.h"
 
@@ -156,10 +157,8 @@ std::vector<Eigen::Vector2d> project_P(const CameraModel& cam, const Eigen::Isom
     obj.emplace_back(q.x(), q.y(), q.z());
   }
   std::vector<cv::Point2d> img;
-  const cv::Mat K = (cv::Mat_<double>(3, 3) << cam.fx_px, 0, cam.cx_px, 0, cam.fy_px, cam.cy_px, 0,
-                     0, 1);
-  const cv::Mat D = (cv::Mat_<double>(1, 5) << cam.k1, cam.k2, cam.p1, cam.p2, cam.k3);
-  cv::projectPoints(obj, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K, D, img);
+  cv::projectPoints(obj, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), camera_matrix_cv(cam),
+                    dist_coeffs_cv(cam), img);
   std::vector<Eigen::Vector2d> out;
   for (const auto& p : img) out.emplace_back(p.x, p.y);
   return out;

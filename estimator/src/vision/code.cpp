@@ -11,6 +11,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "lander/estimator/camera_cv.h"
 #include "vision/internal.h"
 
 namespace lander {
@@ -57,16 +58,6 @@ constexpr double kCornerMoveFrac = 0.25;
 // cell): the annulus edge would enter the cornerSubPix window.
 constexpr double kRingClearanceCells = 0.8;
 
-Eigen::Vector2d distort_point(const CameraModel& cam, const Eigen::Vector2d& u) {
-  if (!cam.has_distortion()) return u;
-  const double x = (u.x() - cam.cx_px) / cam.fx_px, y = (u.y() - cam.cy_px) / cam.fy_px;
-  const double r2 = x * x + y * y;
-  const double radial = 1 + cam.k1 * r2 + cam.k2 * r2 * r2 + cam.k3 * r2 * r2 * r2;
-  const double xd = x * radial + 2 * cam.p1 * x * y + cam.p2 * (r2 + 2 * x * x);
-  const double yd = y * radial + cam.p1 * (r2 + 2 * y * y) + 2 * cam.p2 * x * y;
-  return {cam.fx_px * xd + cam.cx_px, cam.fy_px * yd + cam.cy_px};
-}
-
 std::vector<Eigen::Vector2d> undistort_points(const CameraModel& cam,
                                               const std::vector<cv::Point2f>& pts) {
   std::vector<Eigen::Vector2d> out;
@@ -75,9 +66,8 @@ std::vector<Eigen::Vector2d> undistort_points(const CameraModel& cam,
     for (const auto& p : pts) out.emplace_back(p.x, p.y);
     return out;
   }
-  const cv::Mat Kcv =
-      (cv::Mat_<double>(3, 3) << cam.fx_px, 0, cam.cx_px, 0, cam.fy_px, cam.cy_px, 0, 0, 1);
-  const cv::Mat Dcv = (cv::Mat_<double>(1, 5) << cam.k1, cam.k2, cam.p1, cam.p2, cam.k3);
+  const cv::Mat Kcv = camera_matrix_cv(cam);
+  const cv::Mat Dcv = dist_coeffs_cv(cam);
   std::vector<cv::Point2f> und;
   cv::undistortPoints(pts, und, Kcv, Dcv, cv::noArray(), Kcv,
                       cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 1e-6));
@@ -670,7 +660,7 @@ CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
       const int da[4] = {0, 1, 1, 0}, db[4] = {0, 0, 1, 1};
       for (int k = 0; k < 4 && ok; ++k) {
         corner[k] = apply_h(*H, Eigen::Vector2d(a + da[k], b + db[k]));
-        const Eigen::Vector2d r = distort_point(cam, corner[k]);
+        const Eigen::Vector2d r = cam.distort_px(corner[k]);
         ok = r.x() >= 1 && r.y() >= 1 && r.x() <= grey.cols - 2 && r.y() <= grey.rows - 2;
       }
       if (!ok) continue;
@@ -683,7 +673,7 @@ CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
         for (int j = 0; j < kCellSamples; ++j) {
           const double u = a + 0.25 + 0.5 * (i + 0.5) / kCellSamples;
           const double v = b + 0.25 + 0.5 * (j + 0.5) / kCellSamples;
-          const Eigen::Vector2d r = distort_point(cam, apply_h(*H, Eigen::Vector2d(u, v)));
+          const Eigen::Vector2d r = cam.distort_px(apply_h(*H, Eigen::Vector2d(u, v)));
           sum += bilinear(grey, r.x(), r.y());
         }
       }
@@ -749,7 +739,7 @@ CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
       const Eigen::Vector2i l =
           rotate_lattice(col - d.placement.col_offset, row - d.placement.row_offset, qi);
       const Eigen::Vector2d u = apply_h(*H, l.cast<double>());
-      const Eigen::Vector2d r = distort_point(cam, u);
+      const Eigen::Vector2d r = cam.distort_px(u);
       if (r.x() < win + 2 || r.y() < win + 2 || r.x() > grey.cols - win - 3 ||
           r.y() > grey.rows - win - 3) {
         continue;

@@ -11,6 +11,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "lander/estimator/camera_cv.h"
 #include "vision/internal.h"
 
 namespace lander {
@@ -113,17 +114,6 @@ Eigen::Vector2d project(const Eigen::Matrix3d& K, const Eigen::Isometry3d& X_CP,
                         const Eigen::Vector2d& c_P) {
   const Eigen::Vector3d p = K * (X_CP * Eigen::Vector3d(c_P.x(), c_P.y(), 0.0));
   return p.head<2>() / p.z();
-}
-
-// Raw-image pixel of an undistorted pixel (applies the Brown-Conrady model).
-Eigen::Vector2d distort(const CameraModel& cam, const Eigen::Vector2d& u) {
-  if (!cam.has_distortion()) return u;
-  const double x = (u.x() - cam.cx_px) / cam.fx_px, y = (u.y() - cam.cy_px) / cam.fy_px;
-  const double r2 = x * x + y * y;
-  const double radial = 1 + cam.k1 * r2 + cam.k2 * r2 * r2 + cam.k3 * r2 * r2 * r2;
-  const double xd = x * radial + 2 * cam.p1 * x * y + cam.p2 * (r2 + 2 * x * x);
-  const double yd = y * radial + cam.p1 * (r2 + 2 * y * y) + 2 * cam.p2 * x * y;
-  return {cam.fx_px * xd + cam.cx_px, cam.fy_px * yd + cam.cy_px};
 }
 
 // Everything from contours to the refined pose on one search region. Fills `d` except the
@@ -229,7 +219,7 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
       IdentifiedCentre c;
       c.ring_id = pc.ring_id;
       c.centre_px = pc.centre;
-      c.centre_image_px = distort(cam, pc.centre);
+      c.centre_image_px = cam.distort_px(pc.centre);
       c.radius_ratio = pc.ratio;
       c.outer_index = pc.outer;
       c.inner_index = pc.inner;
@@ -661,10 +651,8 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image) {
     }
     if (!pts.empty()) {
       std::vector<cv::Point2d> img;
-      const cv::Mat Kcv = (cv::Mat_<double>(3, 3) << camera_.fx_px, 0, camera_.cx_px, 0,
-                           camera_.fy_px, camera_.cy_px, 0, 0, 1);
-      const cv::Mat Dcv = (cv::Mat_<double>(1, 5) << camera_.k1, camera_.k2, camera_.p1,
-                           camera_.p2, camera_.k3);
+      const cv::Mat Kcv = camera_matrix_cv(camera_);
+      const cv::Mat Dcv = dist_coeffs_cv(camera_);
       cv::projectPoints(pts, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), Kcv, Dcv, img);
       double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
       for (const auto& q : img) {

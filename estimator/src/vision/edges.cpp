@@ -6,6 +6,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "lander/estimator/camera_cv.h"
 #include "vision/internal.h"
 
 namespace lander::vision_internal {
@@ -152,9 +153,8 @@ std::optional<EllipseCandidate> refine_candidate(const cv::Mat& blurred, const c
   EllipseCandidate cand;
   cand.image = e;
   if (cam.has_distortion()) {
-    const cv::Mat Kcv = (cv::Mat_<double>(3, 3) << cam.fx_px, 0, cam.cx_px, 0, cam.fy_px,
-                         cam.cy_px, 0, 0, 1);
-    const cv::Mat Dcv = (cv::Mat_<double>(1, 5) << cam.k1, cam.k2, cam.p1, cam.p2, cam.k3);
+    const cv::Mat Kcv = camera_matrix_cv(cam);
+    const cv::Mat Dcv = dist_coeffs_cv(cam);
     std::vector<cv::Point2d> src(pts.size()), dst;
     for (std::size_t i = 0; i < pts.size(); ++i) src[i] = cv::Point2d(pts[i].x(), pts[i].y());
     cv::undistortPoints(src, dst, Kcv, Dcv, cv::noArray(), Kcv);

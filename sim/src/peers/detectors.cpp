@@ -8,6 +8,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "lander/estimator/camera_cv.h"
 #include "lander/sim/peer_detectors.h"
 
 namespace lander::sim {
@@ -15,13 +16,6 @@ namespace lander::sim {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-cv::Mat camera_matrix(const CameraModel& c) {
-  return (cv::Mat_<double>(3, 3) << c.fx_px, 0, c.cx_px, 0, c.fy_px, c.cy_px, 0, 0, 1);
-}
-cv::Mat dist_coeffs(const CameraModel& c) {
-  return (cv::Mat_<double>(1, 5) << c.k1, c.k2, c.p1, c.p2, c.k3);
-}
 
 cv::Mat to_grey(const cv::Mat& img) {
   cv::Mat g;
@@ -42,13 +36,13 @@ bool square_pnp(PeerDetection& d, const CameraModel& cam, const TargetGeometry& 
   std::vector<cv::Point2d> img;
   for (const auto& c : d.corners_px) img.emplace_back(c.x(), c.y());
   cv::Mat rvec, tvec;
-  if (!cv::solvePnP(obj, img, camera_matrix(cam), dist_coeffs(cam), rvec, tvec, false,
+  if (!cv::solvePnP(obj, img, camera_matrix_cv(cam), dist_coeffs_cv(cam), rvec, tvec, false,
                     cv::SOLVEPNP_IPPE_SQUARE)) {
     d.reason = "IPPE_SQUARE failed";
     return false;
   }
   std::vector<cv::Point2d> proj;
-  cv::projectPoints(obj, rvec, tvec, camera_matrix(cam), dist_coeffs(cam), proj);
+  cv::projectPoints(obj, rvec, tvec, camera_matrix_cv(cam), dist_coeffs_cv(cam), proj);
   double ss = 0;
   for (int i = 0; i < 4; ++i) ss += std::pow(cv::norm(proj[i] - img[i]), 2);
   d.reproj_err_px = std::sqrt(ss / 4);

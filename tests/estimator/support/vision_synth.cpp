@@ -8,6 +8,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "lander/estimator/camera_cv.h"
 #include "lander/estimator/vision_conic.h"
 
 namespace lander::test {
@@ -187,9 +188,8 @@ cv::Mat render_view(const TargetGeometry& g, const CameraModel& cam, const Eigen
         src.emplace_back((x + 0.5f) / S - 0.5f, (y + 0.5f) / S - 0.5f);
       }
     }
-    const cv::Mat Kcv = (cv::Mat_<double>(3, 3) << cam.fx_px, 0, cam.cx_px, 0, cam.fy_px,
-                         cam.cy_px, 0, 0, 1);
-    const cv::Mat Dcv = (cv::Mat_<double>(1, 5) << cam.k1, cam.k2, cam.p1, cam.p2, cam.k3);
+    const cv::Mat Kcv = camera_matrix_cv(cam);
+    const cv::Mat Dcv = dist_coeffs_cv(cam);
     std::vector<cv::Point2f> und;
     cv::undistortPoints(src, und, Kcv, Dcv, cv::noArray(), Kcv,
                         cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 50, 1e-9));

@@ -39,6 +39,9 @@ struct CameraModel {
     return k;
   }
   bool has_distortion() const { return k1 != 0 || k2 != 0 || p1 != 0 || p2 != 0 || k3 != 0; }
+  // Raw-image pixel of an undistorted pixel u (applies the Brown-Conrady model; identity
+  // without distortion).
+  Eigen::Vector2d distort_px(const Eigen::Vector2d& u) const;
   void validate() const {
     require(width_px > 0, "width_px", "must be > 0");
     require(height_px > 0, "height_px", "must be > 0");
