@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <string>
 
 #include <Eigen/Dense>
 
@@ -41,34 +42,46 @@ void PlatformTracker::add_nav(const NavState& nav) {
   }
 }
 
-Eigen::Vector3d PlatformTracker::dead_reckoned_at(double t_s) const {
+bool PlatformTracker::bracket(double t_s, const char* who, std::size_t* lo, double* u) const {
   if (nav_.empty()) {
-    throw std::logic_error("PlatformTracker::dead_reckoned_at: no valid navigation state");
+    throw std::logic_error(std::string("PlatformTracker::") + who +
+                           ": no valid navigation state");
   }
-  if (t_s <= nav_.front().t_s) return dr_.front();
-  if (t_s >= nav_.back().t_s) return dr_.back();
+  if (t_s <= nav_.front().t_s) {
+    *lo = 0;
+    return false;
+  }
+  if (t_s >= nav_.back().t_s) {
+    *lo = nav_.size() - 1;
+    return false;
+  }
+  // First element with time > t_s; its predecessor has time <= t_s.
   const auto hi = std::upper_bound(nav_.begin(), nav_.end(), t_s,
                                    [](double t, const NavState& n) { return t < n.t_s; });
-  const auto i = static_cast<size_t>(hi - nav_.begin());
-  const double u = (t_s - nav_[i - 1].t_s) / (nav_[i].t_s - nav_[i - 1].t_s);
-  return (1 - u) * dr_[i - 1] + u * dr_[i];
+  *lo = static_cast<std::size_t>(hi - nav_.begin()) - 1;
+  *u = (t_s - nav_[*lo].t_s) / (hi->t_s - nav_[*lo].t_s);
+  return true;
+}
+
+Eigen::Vector3d PlatformTracker::dead_reckoned_at(double t_s) const {
+  std::size_t i = 0;
+  double u = 0.0;
+  if (!bracket(t_s, "dead_reckoned_at", &i, &u)) return dr_[i];
+  return (1 - u) * dr_[i] + u * dr_[i + 1];
 }
 
 NavState PlatformTracker::nav_at(double t_s) const {
-  if (nav_.empty()) throw std::logic_error("PlatformTracker::nav_at: no valid navigation state");
-  if (t_s <= nav_.front().t_s) return nav_.front();
-  if (t_s >= nav_.back().t_s) return nav_.back();
-  // First element with time > t_s; its predecessor has time <= t_s.
-  auto hi = std::upper_bound(nav_.begin(), nav_.end(), t_s,
-                             [](double t, const NavState& n) { return t < n.t_s; });
-  auto lo = hi - 1;
-  const double u = (t_s - lo->t_s) / (hi->t_s - lo->t_s);
-  NavState out = *lo;
+  std::size_t i = 0;
+  double u = 0.0;
+  if (!bracket(t_s, "nav_at", &i, &u)) return nav_[i];
+  const NavState& lo = nav_[i];
+  const NavState& hi = nav_[i + 1];
+  NavState out = lo;
   out.t_s = t_s;
-  out.p_W_m = (1 - u) * lo->p_W_m + u * hi->p_W_m;
-  out.v_W_mps = (1 - u) * lo->v_W_mps + u * hi->v_W_mps;
-  out.omega_B_radps = (1 - u) * lo->omega_B_radps + u * hi->omega_B_radps;
-  out.q_WB = lo->q_WB.slerp(u, hi->q_WB);
+  out.p_W_m = (1 - u) * lo.p_W_m + u * hi.p_W_m;
+  out.v_W_mps = (1 - u) * lo.v_W_mps + u * hi.v_W_mps;
+  out.omega_B_radps = (1 - u) * lo.omega_B_radps + u * hi.omega_B_radps;
+  out.q_WB = lo.q_WB.slerp(u, hi.q_WB);
   return out;
 }
 

@@ -110,6 +110,9 @@ class PlatformTracker {
               std::string* why = nullptr) const;
 
  private:
+  // Where t_s falls in the nav buffer: between nav_[*lo] and nav_[*lo + 1] at fraction *u
+  // (true), or clamped to the end *lo (false). Throws std::logic_error naming `who` if empty.
+  bool bracket(double t_s, const char* who, std::size_t* lo, double* u) const;
   bool local_position(Eigen::Vector3d* p_last) const;
   bool relative_fit(Eigen::Vector3d* a, Eigen::Vector3d* b) const;
 
