@@ -52,18 +52,22 @@ std::string ArgParser::value(const std::string& name, const std::string& fallbac
   return fallback;
 }
 
-long long ArgParser::integer(const std::string& name, long long fallback, long long min) const {
-  if (!has(name)) return fallback;
-  const std::string v = value(name);
+namespace {
+
+// `--name value` read whole by `parse` (std::stoll or std::stod) and at least `min`;
+// UsageError naming the option otherwise. `what` is what the value must be.
+template <class T, class Parse>
+T parse_option(const std::string& name, const std::string& v, T min, const char* what,
+               Parse parse) {
   std::size_t used = 0;
-  long long x = 0;
+  T x{};
   try {
-    x = std::stoll(v, &used);
+    x = parse(v, &used);
   } catch (const std::exception&) {
     used = 0;
   }
-  if (used == 0 || used != v.size()) {
-    throw UsageError("option --" + name + ": '" + v + "' is not a whole number");
+  if (used == 0 || used != v.size() || !std::isfinite(static_cast<double>(x))) {
+    throw UsageError("option --" + name + ": '" + v + "' is not " + what);
   }
   if (x < min) {
     throw UsageError("option --" + name + ": " + v + " must be >= " + std::to_string(min));
@@ -71,23 +75,22 @@ long long ArgParser::integer(const std::string& name, long long fallback, long l
   return x;
 }
 
+}  // namespace
+
+long long ArgParser::integer(const std::string& name, long long fallback, long long min) const {
+  if (!has(name)) return fallback;
+  return parse_option<long long>(name, value(name), min, "a whole number",
+                                 [](const std::string& v, std::size_t* used) {
+                                   return std::stoll(v, used);
+                                 });
+}
+
 double ArgParser::number(const std::string& name, double fallback, double min) const {
   if (!has(name)) return fallback;
-  const std::string v = value(name);
-  std::size_t used = 0;
-  double x = 0;
-  try {
-    x = std::stod(v, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != v.size() || !std::isfinite(x)) {
-    throw UsageError("option --" + name + ": '" + v + "' is not a number");
-  }
-  if (x < min) {
-    throw UsageError("option --" + name + ": " + v + " must be >= " + std::to_string(min));
-  }
-  return x;
+  return parse_option<double>(name, value(name), min, "a number",
+                              [](const std::string& v, std::size_t* used) {
+                                return std::stod(v, used);
+                              });
 }
 
 namespace {
