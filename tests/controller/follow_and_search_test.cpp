@@ -29,7 +29,7 @@ constexpr double kSearchPredictionError_m = 1.0;
 // Horizontal speed below which the vehicle counts as holding position (m/s).
 constexpr double kHoldSpeed_mps = 0.1;
 // Relative speed at touchdown the team asked for (~0.3 m/s); the descent at
-// descent_rate_final_mps (0.15 m/s) plus the fall from below cut_height_m (1.5 cm) with the
+// descent_rate_final_mps (0.15 m/s) plus the fall from below cut_height_m (1 cm) with the
 // rotors spinning down stays under it.
 constexpr double kSoftTouchdown_mps = 0.4;
 
