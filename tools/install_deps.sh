@@ -13,7 +13,14 @@ PKGS=(
   libosmesa6-dev libegl-dev libegl-mesa0 libgl-dev libgles-dev libgl1-mesa-dri
   libgtest-dev libgmock-dev libbenchmark-dev
   libapriltag-dev
+  nlohmann-json3-dev libfmt-dev
   ffmpeg
+  # campaign report (plots) and its headless-browser check
+  python3 python3-matplotlib chromium
+  # sanitizer and fuzzing builds
+  clang libclang-rt-14-dev
+  # the one-node Slurm cluster of the campaign's cluster test
+  slurmctld slurmd slurm-client munge
 )
 missing=()
 for p in "${PKGS[@]}"; do

@@ -1,23 +1,11 @@
 #include "lander/sim/video.h"
 
-#include <unistd.h>
-
-#include <cstdlib>
-#include <sstream>
+#include <cstdio>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 namespace lander::sim {
-
-bool on_path(const std::string& name) {
-  const char* path = std::getenv("PATH");
-  if (!path) return false;
-  std::stringstream ss(path);
-  std::string dir;
-  while (std::getline(ss, dir, ':')) {
-    if (!dir.empty() && access((dir + "/" + name).c_str(), X_OK) == 0) return true;
-  }
-  return false;
-}
 
 VideoWriter::VideoWriter(const std::string& path, int width, int height, double fps)
     : path_(path), width_(width), height_(height) {
@@ -27,12 +15,21 @@ VideoWriter::VideoWriter(const std::string& path, int width, int height, double 
   if (width % 2 || height % 2) {
     throw std::runtime_error("cannot write " + path + ": H.264 needs even frame sizes");
   }
-  std::ostringstream cmd;
-  cmd << "ffmpeg -loglevel error -y -f rawvideo -pix_fmt bgr24 -s " << width << "x" << height
-      << " -r " << fps << " -i - -an -c:v libx264 -preset veryfast -crf 23 -pix_fmt yuv420p "
-      << "-movflags +faststart '" << path << "'";
-  pipe_ = popen(cmd.str().c_str(), "w");
-  if (!pipe_) throw std::runtime_error("cannot start ffmpeg for " + path);
+  // ffmpeg picks the container from the name: keep ".mp4" last in the temporary name.
+  tmp_path_ = path + ".partial.mp4";
+  char rate[32];
+  std::snprintf(rate, sizeof(rate), "%.6g", fps);
+  const std::vector<std::string> argv = {
+      "ffmpeg", "-nostdin", "-loglevel", "error", "-y", "-f", "rawvideo", "-pix_fmt", "bgr24",
+      "-s", std::to_string(width) + "x" + std::to_string(height), "-r", rate, "-i", "pipe:0",
+      "-an", "-c:v", "libx264", "-preset", "veryfast", "-crf", "23", "-pix_fmt", "yuv420p",
+      "-movflags", "+faststart", "-f", "mp4",
+      // "file:" keeps a name that starts with '-' or holds ':' a plain file name.
+      "file:" + tmp_path_};
+  SpawnOptions o;
+  o.stdin_pipe = true;
+  o.stdout_to_null = true;
+  ffmpeg_ = std::make_unique<ChildProcess>(ChildProcess::spawn(argv, o));
 }
 
 VideoWriter::~VideoWriter() {
@@ -44,23 +41,29 @@ VideoWriter::~VideoWriter() {
 }
 
 void VideoWriter::write(const cv::Mat& bgr) {
-  if (!pipe_) throw std::runtime_error("video " + path_ + " is closed");
+  if (!ffmpeg_) throw std::runtime_error("video " + path_ + " is closed");
   if (bgr.cols != width_ || bgr.rows != height_ || bgr.type() != CV_8UC3) {
     throw std::runtime_error("video " + path_ + ": frame size or type differs from the stream");
   }
   const cv::Mat c = bgr.isContinuous() ? bgr : bgr.clone();
-  const std::size_t n = c.total() * c.elemSize();
-  if (std::fwrite(c.data, 1, n, pipe_) != n) {
+  if (!ffmpeg_->write_stdin(c.data, c.total() * c.elemSize())) {
     throw std::runtime_error("video " + path_ + ": ffmpeg stopped accepting frames");
   }
   ++frames_;
 }
 
 void VideoWriter::close() {
-  if (!pipe_) return;
-  const int status = pclose(pipe_);
-  pipe_ = nullptr;
-  if (status != 0) throw std::runtime_error("ffmpeg failed writing " + path_);
+  if (!ffmpeg_) return;
+  ffmpeg_->close_stdin();
+  const ExitStatus st = ffmpeg_->wait();
+  ffmpeg_.reset();
+  if (!st.ok()) {
+    std::remove(tmp_path_.c_str());
+    throw std::runtime_error("ffmpeg failed writing " + path_ + " (" + st.describe() + ")");
+  }
+  if (std::rename(tmp_path_.c_str(), path_.c_str()) != 0) {
+    throw std::runtime_error("cannot rename " + tmp_path_ + " to " + path_);
+  }
 }
 
 }  // namespace lander::sim

@@ -1,10 +1,15 @@
-// MP4 (H.264) writer: pipes raw BGR frames to the ffmpeg command-line tool.
+// MP4 (H.264) writer: pipes raw BGR frames to the ffmpeg command-line tool, started from an
+// argument vector (no shell: any byte may appear in the path). The file is written under a
+// temporary name next to it and renamed when ffmpeg has finished it, so a run that stops
+// midway never leaves a playable-looking half file.
 #pragma once
 
-#include <cstdio>
+#include <memory>
 #include <string>
 
 #include <opencv2/core.hpp>
+
+#include "lander/sim/process.h"
 
 namespace lander::sim {
 
@@ -25,11 +30,9 @@ class VideoWriter {
  private:
   std::string path_;
   int width_, height_;
-  FILE* pipe_ = nullptr;
+  std::string tmp_path_;
+  std::unique_ptr<ChildProcess> ffmpeg_;
   int frames_ = 0;
 };
-
-// True if an executable named `name` is on PATH.
-bool on_path(const std::string& name);
 
 }  // namespace lander::sim
