@@ -97,8 +97,21 @@ ChildProcess ChildProcess::spawn(const std::vector<std::string>& argv, const Spa
   std::vector<char*> cargv;
   for (const std::string& a : argv) cargv.push_back(const_cast<char*>(a.c_str()));
   cargv.push_back(nullptr);
+  // The environment: the parent's, with o.env's names replaced or added.
+  std::vector<std::string> env_storage;
+  for (char** e = environ; e && *e; ++e) {
+    const std::string entry(*e);
+    const std::string name = entry.substr(0, entry.find('='));
+    bool replaced = false;
+    for (const std::string& o_e : o.env) replaced |= o_e.substr(0, o_e.find('=')) == name;
+    if (!replaced) env_storage.push_back(entry);
+  }
+  for (const std::string& o_e : o.env) env_storage.push_back(o_e);
+  std::vector<char*> cenv;
+  for (const std::string& e : env_storage) cenv.push_back(const_cast<char*>(e.c_str()));
+  cenv.push_back(nullptr);
   pid_t pid = -1;
-  const int rc = posix_spawnp(&pid, argv[0].c_str(), &s.fa, &s.attr, cargv.data(), environ);
+  const int rc = posix_spawnp(&pid, argv[0].c_str(), &s.fa, &s.attr, cargv.data(), cenv.data());
   if (o.stdin_pipe) close(pipe_fds[0]);
   if (rc != 0) {
     if (o.stdin_pipe) close(pipe_fds[1]);

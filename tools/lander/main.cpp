@@ -1,6 +1,11 @@
 // The `lander` command line: dispatches to the subcommands registered in cmd_*.cpp.
+#include <sys/prctl.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <csignal>
 #include <cmath>
+#include <cstdlib>
 #include <iostream>
 
 #include "command.h"
@@ -107,7 +112,17 @@ void print_help(std::ostream& out) {
 }
 }  // namespace
 
+// A process started by the campaign runner dies with it: LANDER_DIE_WITH_PARENT holds the
+// runner's pid. A runner killed with SIGKILL then leaves no run writing into the campaign.
+void die_with_parent() {
+  const char* v = std::getenv("LANDER_DIE_WITH_PARENT");
+  if (!v || !*v) return;
+  prctl(PR_SET_PDEATHSIG, SIGKILL);
+  if (std::to_string(getppid()) != v) std::_Exit(kExitFailure);  // the parent is already gone
+}
+
 int main_impl(int argc, char** argv) {
+  die_with_parent();
   if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h") {
     print_help(argc < 2 ? std::cerr : std::cout);
     return argc < 2 ? kExitBadInput : kExitOk;

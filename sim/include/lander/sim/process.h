@@ -28,6 +28,7 @@ struct SpawnOptions {
   std::string stderr_path;   ///< file for the child's stderr (created/truncated); "" inherits
   bool stdout_to_null{false};  ///< discard stdout (when stdout_path is empty)
   bool own_process_group{false};  ///< the child leads a new process group (kill takes its children)
+  std::vector<std::string> env;   ///< "NAME=value" entries added to (or replacing) the parent's
 };
 
 // A started child process. Destroying a running child kills it (SIGKILL) and reaps it.

@@ -1,0 +1,364 @@
+#include "lander/campaign/merge.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "lander/campaign/stats.h"
+#include "lander/estimator/params_io.h"
+#include "lander/sim/json.h"
+#include "lander/sim/process.h"
+#include "yaml_json.h"
+
+namespace lander::campaign {
+
+namespace fs = std::filesystem;
+using json = nlohmann::ordered_json;
+
+namespace {
+
+std::string read_file(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  std::ostringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+// One completed run as the merge sees it.
+struct Row {
+  std::string id, scenario, status, outcome, detail;
+  std::uint64_t seed{0};
+  bool landed{false};
+  double offset{NAN}, x_P{NAN}, y_P{NAN}, speed{NAN}, tilt{NAN}, time{NAN}, wall{NAN};
+  json sampled;  // key -> value
+};
+
+double num(const json& j, const char* key) {
+  if (!j.is_object() || !j.contains(key) || !j[key].is_number()) return NAN;
+  return j[key].get<double>();
+}
+
+json stat_block(const std::vector<double>& x, bool with_p95_ci) {
+  json s;
+  s["n"] = x.size();
+  auto v = [](double d) { return std::isfinite(d) ? json(d) : json(nullptr); };
+  s["mean"] = v(mean(x));
+  s["median"] = v(quantile(x, 0.5));
+  s["p95"] = v(quantile(x, 0.95));
+  s["max"] = x.empty() ? json(nullptr) : json(*std::max_element(x.begin(), x.end()));
+  if (with_p95_ci) {
+    const Interval ci = bootstrap95(x, [](const std::vector<double>& s) { return quantile(s, 0.95); });
+    s["p95_ci95"] = x.empty() ? json(nullptr) : json::array({ci.lo, ci.hi});
+  }
+  return s;
+}
+
+json group_stats(const std::vector<const Row*>& rows) {
+  json g;
+  int landed = 0, landing_failures = 0, sim_failures = 0;
+  std::map<std::string, int> outcomes;
+  std::vector<double> off, speed, tilt, time;
+  for (const Row* r : rows) {
+    ++outcomes[r->outcome];
+    if (r->status != "ok") {
+      ++sim_failures;
+      continue;
+    }
+    if (!r->landed) {
+      ++landing_failures;
+      continue;
+    }
+    ++landed;
+    if (std::isfinite(r->offset)) off.push_back(r->offset);
+    if (std::isfinite(r->speed)) speed.push_back(r->speed);
+    if (std::isfinite(r->tilt)) tilt.push_back(r->tilt);
+    if (std::isfinite(r->time)) time.push_back(r->time);
+  }
+  const int n = static_cast<int>(rows.size());
+  g["runs"] = n;
+  g["landed"] = landed;
+  // The landing rate counts the runs the simulator completed: a simulator failure says nothing
+  // about the landing stack and is counted apart.
+  const int valid = n - sim_failures;
+  const Interval ci = wilson95(landed, valid);
+  g["landing_rate"] = {{"value", valid > 0 ? json(static_cast<double>(landed) / valid) : json(nullptr)},
+                       {"ci95", json::array({ci.lo, ci.hi})},
+                       {"of_runs", valid}};
+  g["landing_failures"] = landing_failures;
+  g["simulator_failures"] = sim_failures;
+  json oc = json::object();
+  for (const auto& [k, v] : outcomes) oc[k] = v;
+  g["outcomes"] = oc;
+  g["touchdown_offset_m"] = stat_block(off, true);
+  g["touchdown_rel_speed_mps"] = stat_block(speed, false);
+  g["touchdown_tilt_deg"] = stat_block(tilt, false);
+  g["time_to_land_s"] = stat_block(time, false);
+  return g;
+}
+
+std::string cell(double v) { return std::isfinite(v) ? fmt::format("{}", v) : ""; }
+
+// RFC 4180: a field with a comma, quote or line break is quoted, quotes doubled.
+std::string csv_field(const std::string& s) {
+  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
+  std::string q = "\"";
+  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return q + "\"";
+}
+
+// Input columns: each sampled key flattened ("key" or "key[i]").
+std::vector<std::string> input_columns(const json& keys, const std::vector<Row>& rows) {
+  std::vector<std::string> cols;
+  for (const auto& k : keys) {
+    const std::string key = k.get<std::string>();
+    std::size_t width = 0;
+    for (const Row& r : rows) {
+      if (r.sampled.contains(key) && r.sampled[key].is_array()) width = std::max(width, r.sampled[key].size());
+    }
+    if (width == 0) {
+      cols.push_back(key);
+    } else {
+      for (std::size_t i = 0; i < width; ++i) cols.push_back(key + "[" + std::to_string(i) + "]");
+    }
+  }
+  return cols;
+}
+
+json input_value(const Row& r, const std::string& col) {
+  const auto b = col.find('[');
+  if (b == std::string::npos) return r.sampled.contains(col) ? r.sampled[col] : json(nullptr);
+  const std::string key = col.substr(0, b);
+  const std::size_t i = std::stoul(col.substr(b + 1));
+  if (!r.sampled.contains(key) || !r.sampled[key].is_array() || i >= r.sampled[key].size()) return nullptr;
+  return r.sampled[key][i];
+}
+
+json sensitivity(const std::vector<std::string>& cols, const std::vector<Row>& rows) {
+  json out = json::array();
+  std::vector<const Row*> ok;
+  for (const Row& r : rows) {
+    if (r.status == "ok") ok.push_back(&r);
+  }
+  for (const std::string& col : cols) {
+    bool numeric = true;
+    for (const Row* r : ok) numeric &= input_value(*r, col).is_number();
+    json s;
+    s["input"] = col;
+    if (numeric) {
+      std::vector<double> xin, off, xall, fail;
+      for (const Row* r : ok) {
+        const double v = input_value(*r, col).get<double>();
+        xall.push_back(v);
+        fail.push_back(r->landed ? 0.0 : 1.0);
+        if (r->landed && std::isfinite(r->offset)) {
+          xin.push_back(v);
+          off.push_back(r->offset);
+        }
+      }
+      auto corr = [](const Correlation& c) {
+        return json{{"rho", std::isfinite(c.rho) ? json(c.rho) : json(nullptr)}, {"p", c.p}, {"n", c.n}};
+      };
+      s["kind"] = "numeric";
+      s["n"] = ok.size();
+      s["offset_spearman"] = corr(spearman(xin, off));
+      s["failure_spearman"] = corr(spearman(xall, fail));
+    } else {
+      s["kind"] = "categorical";
+      std::map<std::string, std::vector<const Row*>> levels;
+      for (const Row* r : ok) levels[json_scalar_text(input_value(*r, col))].push_back(r);
+      json lv = json::object();
+      for (const auto& [name, rs] : levels) {
+        std::vector<double> off;
+        int landed = 0;
+        for (const Row* r : rs) {
+          if (r->landed) {
+            ++landed;
+            if (std::isfinite(r->offset)) off.push_back(r->offset);
+          }
+        }
+        const double med = quantile(off, 0.5);
+        lv[name] = {{"runs", rs.size()},
+                    {"landed", landed},
+                    {"landing_rate", static_cast<double>(landed) / static_cast<double>(rs.size())},
+                    {"offset_median_m", std::isfinite(med) ? json(med) : json(nullptr)}};
+      }
+      s["levels"] = lv;
+    }
+    out.push_back(s);
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string shell_quote(const std::string& s) {
+  const bool plain = !s.empty() && std::all_of(s.begin(), s.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || std::string("/._-+=:,@").find(c) != std::string::npos;
+  });
+  if (plain) return s;
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+MergeResult merge_campaign(const std::string& dir, const MergeOptions& o) {
+  const std::string plan_path = dir + "/plan.json";
+  if (!fs::exists(plan_path)) {
+    throw ConfigError(plan_path + ": not found; is " + dir + " a campaign directory (lander campaign run ... --out DIR)?");
+  }
+  json plan;
+  try {
+    plan = json::parse(read_file(plan_path));
+  } catch (const json::exception& e) {
+    throw ConfigError(plan_path + ": unreadable (" + e.what() + ")");
+  }
+  if (!plan.is_object() || !plan.contains("runs") || !plan["runs"].is_array()) {
+    throw ConfigError(plan_path + ": no 'runs' list");
+  }
+  MergeResult res;
+  std::vector<Row> rows;
+  std::vector<std::string> scenario_order;
+  for (const json& p : plan["runs"]) {
+    const std::string id = p.at("id").get<std::string>();
+    const std::string scen = p.at("scenario").get<std::string>();
+    if (std::find(scenario_order.begin(), scenario_order.end(), scen) == scenario_order.end()) {
+      scenario_order.push_back(scen);
+    }
+    ++res.planned;
+    const std::string rdir = dir + "/runs/" + id;
+    json rec;
+    try {
+      rec = json::parse(read_file(rdir + "/run.json"));
+    } catch (const json::exception&) {
+      res.missing.push_back(id);
+      continue;
+    }
+    Row r;
+    r.id = id;
+    r.scenario = scen;
+    r.seed = p.at("seed").get<std::uint64_t>();
+    r.sampled = p.value("sampled", json::object());
+    r.status = rec.value("status", "error");
+    r.outcome = rec.value("outcome", r.status);
+    r.detail = rec.value("detail", "");
+    r.landed = rec.value("landed", false);
+    r.wall = num(rec, "wall_s");
+    if (r.status == "ok") {
+      try {
+        const json s = json::parse(read_file(rdir + "/summary.json"));
+        r.offset = num(s, "touchdown_offset_m");
+        r.speed = num(s, "touchdown_rel_speed_mps");
+        r.tilt = num(s, "touchdown_tilt_deg");
+        r.time = num(s, "time_to_land_s");
+        if (s.contains("touchdown") && s["touchdown"].contains("offset_P_m") &&
+            s["touchdown"]["offset_P_m"].is_array() && s["touchdown"]["offset_P_m"].size() == 2) {
+          r.x_P = s["touchdown"]["offset_P_m"][0].get<double>();
+          r.y_P = s["touchdown"]["offset_P_m"][1].get<double>();
+        }
+      } catch (const json::exception& e) {
+        r.status = "error";
+        r.outcome = "error";
+        r.landed = false;
+        r.detail = std::string("summary.json unreadable at merge: ") + e.what();
+      }
+    }
+    if (r.status != "ok") ++res.simulator_failures;
+    rows.push_back(r);
+  }
+  res.complete = static_cast<int>(rows.size());
+
+  // campaign.csv
+  const json keys = plan.value("dispersion_keys", json::array());
+  const std::vector<std::string> cols = input_columns(keys, rows);
+  std::ostringstream csv;
+  csv << "id,scenario,seed,outcome,landed,touchdown_offset_m";
+  for (const std::string& c : cols) csv << "," << csv_field(c);
+  csv << ",touchdown_x_P_m,touchdown_y_P_m,touchdown_rel_speed_mps,touchdown_tilt_deg,"
+         "time_to_land_s,wall_s,status,detail\n";
+  for (const Row& r : rows) {
+    csv << csv_field(r.id) << "," << csv_field(r.scenario) << "," << r.seed << ","
+        << csv_field(r.outcome) << "," << (r.landed ? 1 : 0) << "," << cell(r.offset);
+    for (const std::string& c : cols) csv << "," << csv_field(json_scalar_text(input_value(r, c)));
+    csv << "," << cell(r.x_P) << "," << cell(r.y_P) << "," << cell(r.speed) << "," << cell(r.tilt)
+        << "," << cell(r.time) << "," << cell(r.wall) << "," << csv_field(r.status) << ","
+        << csv_field(r.detail) << "\n";
+  }
+  sim::write_text_file(dir + "/campaign.csv", csv.str());
+
+  // campaign.json
+  json j;
+  j["schema_version"] = 1;
+  j["name"] = plan.value("name", "campaign");
+  j["master_seed"] = plan.value("master_seed", json(nullptr));
+  j["campaign_file"] = plan.value("campaign_file", "");
+  j["offset_limit_m"] = plan.value("offset_limit_m", 0.10);
+  j["runs_planned"] = res.planned;
+  j["runs_complete"] = res.complete;
+  j["missing"] = res.missing;
+  j["dispersion_keys"] = keys;
+  std::vector<const Row*> all;
+  for (const Row& r : rows) all.push_back(&r);
+  j["overall"] = group_stats(all);
+  json per = json::object();
+  for (const std::string& s : scenario_order) {
+    std::vector<const Row*> g;
+    for (const Row& r : rows) {
+      if (r.scenario == s) g.push_back(&r);
+    }
+    per[s] = group_stats(g);
+  }
+  j["scenarios"] = per;
+  // Worst first: simulator failures, runs that did not land, then the largest offsets.
+  std::vector<const Row*> order = all;
+  auto badness = [](const Row* r) { return r->status != "ok" ? 2 : (!r->landed ? 1 : 0); };
+  std::stable_sort(order.begin(), order.end(), [&](const Row* a, const Row* b) {
+    if (badness(a) != badness(b)) return badness(a) > badness(b);
+    const double oa = std::isfinite(a->offset) ? a->offset : -1, ob = std::isfinite(b->offset) ? b->offset : -1;
+    return oa > ob;
+  });
+  const std::string lander = o.lander_binary.empty() ? sim::self_executable() : o.lander_binary;
+  const std::string abs_dir = fs::absolute(dir).lexically_normal().string();
+  json worst = json::array();
+  for (std::size_t i = 0; i < order.size() && i < 10; ++i) {
+    const Row* r = order[i];
+    json w;
+    w["id"] = r->id;
+    w["scenario"] = r->scenario;
+    w["status"] = r->status;
+    w["outcome"] = r->outcome;
+    w["landed"] = r->landed;
+    w["touchdown_offset_m"] = std::isfinite(r->offset) ? json(r->offset) : json(nullptr);
+    w["detail"] = r->detail;
+    w["rerun"] = shell_quote(lander) + " run " +
+                 shell_quote(abs_dir + "/runs/" + r->id + "/scenario.resolved.yaml") + " --out " +
+                 shell_quote(abs_dir + "/rerun/" + r->id) + " --video";
+    worst.push_back(w);
+  }
+  j["worst_runs"] = worst;
+  j["sensitivity"] = sensitivity(cols, rows);
+  res.campaign = j;
+  sim::write_text_file(dir + "/campaign.json", j.dump(1) + "\n");
+
+  if (o.html) {
+    const std::string script = std::string(LANDER_TOOLS_DIR) + "/campaign_report.py";
+    try {
+      sim::SpawnOptions so;
+      so.stdout_to_null = true;
+      sim::ChildProcess p = sim::ChildProcess::spawn({"python3", script, dir}, so);
+      const sim::ExitStatus st = p.wait();
+      res.html_written = st.ok();
+      if (!st.ok()) res.html_error = script + " failed (" + st.describe() + ")";
+    } catch (const std::exception& e) {
+      res.html_error = e.what();
+    }
+  }
+  return res;
+}
+
+}  // namespace lander::campaign

@@ -1,0 +1,351 @@
+#include "lander/campaign/runner.h"
+
+#include <signal.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "lander/estimator/params_io.h"
+#include "lander/sim/json.h"
+#include "lander/sim/process.h"
+#include "yaml_json.h"
+
+namespace lander::campaign {
+
+namespace fs = std::filesystem;
+using json = nlohmann::ordered_json;
+
+namespace {
+
+volatile sig_atomic_t g_stop = 0;
+void on_stop_signal(int) { g_stop = 1; }
+
+// SIGINT / SIGTERM set a flag for the pool loop while the runner is active.
+class StopSignals {
+ public:
+  StopSignals() {
+    g_stop = 0;
+    struct sigaction sa {};
+    sa.sa_handler = on_stop_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, &old_int_);
+    sigaction(SIGTERM, &sa, &old_term_);
+  }
+  ~StopSignals() {
+    sigaction(SIGINT, &old_int_, nullptr);
+    sigaction(SIGTERM, &old_term_, nullptr);
+  }
+
+ private:
+  struct sigaction old_int_ {}, old_term_ {};
+};
+
+std::string read_file(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  std::ostringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+// The last `max_bytes` of a file, cut at a line start where possible.
+std::string file_tail(const std::string& path, std::size_t max_bytes) {
+  std::string s = read_file(path);
+  if (s.size() <= max_bytes) return s;
+  s = s.substr(s.size() - max_bytes);
+  const auto nl = s.find('\n');
+  return nl != std::string::npos && nl + 1 < s.size() ? s.substr(nl + 1) : s;
+}
+
+json plan_json(const Campaign& c, const std::vector<PlannedRun>& plan) {
+  json j;
+  j["schema_version"] = 1;
+  j["name"] = c.name;
+  j["master_seed"] = c.seed;
+  j["campaign_file"] = fs::absolute(c.file).lexically_normal().string();
+  j["offset_limit_m"] = c.offset_limit_m;
+  std::set<std::string> keys;
+  for (const PlannedRun& r : plan) {
+    for (const auto& kv : r.sampled) keys.insert(kv.first);
+  }
+  j["dispersion_keys"] = json(std::vector<std::string>(keys.begin(), keys.end()));
+  json runs = json::array();
+  for (const PlannedRun& r : plan) {
+    json x;
+    x["id"] = r.id;
+    x["scenario"] = r.scenario;
+    x["scenario_file"] = r.scenario_file;
+    x["index"] = r.index;
+    x["seed"] = r.seed;
+    json sampled = json::object();
+    for (const auto& [k, v] : r.sampled) sampled[k] = yaml_to_json(v);
+    x["sampled"] = sampled;
+    runs.push_back(x);
+  }
+  j["runs"] = runs;
+  return j;
+}
+
+struct Active {
+  const PlannedRun* run;
+  std::string partial;
+  std::unique_ptr<sim::ChildProcess> child;
+  std::chrono::steady_clock::time_point start;
+  bool timed_out{false};
+};
+
+std::string fmt_duration(double s) {
+  if (!std::isfinite(s) || s < 0) return "?";
+  const long t = std::lround(s);
+  if (t >= 3600) return fmt::format("{}h{:02d}m", t / 3600, (t % 3600) / 60);
+  if (t >= 60) return fmt::format("{}m{:02d}s", t / 60, t % 60);
+  return fmt::format("{}s", t);
+}
+
+// Classifies a finished run from its exit status and summary.json, and writes run.json.
+json finish_record(const Active& a, const sim::ExitStatus& st, double wall_s) {
+  json rec;
+  rec["id"] = a.run->id;
+  rec["scenario"] = a.run->scenario;
+  rec["seed"] = a.run->seed;
+  json sampled = json::object();
+  for (const auto& [k, v] : a.run->sampled) sampled[k] = yaml_to_json(v);
+  rec["sampled"] = sampled;
+  std::string status = "ok", outcome, detail;
+  bool landed = false;
+  json summary;
+  const std::string summary_path = a.partial + "/summary.json";
+  bool have_summary = false;
+  if (fs::exists(summary_path)) {
+    try {
+      summary = json::parse(read_file(summary_path));
+      have_summary = summary.is_object() && summary.contains("outcome") &&
+                     summary["outcome"].is_string();
+    } catch (const json::exception& e) {
+      detail = std::string("summary.json unreadable: ") + e.what();
+    }
+  }
+  if (a.timed_out) {
+    status = "hung";
+    detail = fmt::format("no end within the run's wall-clock limit; killed after {:.0f} s", wall_s);
+  } else if (st.signaled) {
+    status = "crashed";
+    detail = "the run process was " + st.describe();
+  } else if (!have_summary) {
+    status = "error";
+    if (detail.empty()) detail = "the run process ended (" + st.describe() + ") without a summary.json";
+  } else {
+    outcome = summary["outcome"].get<std::string>();
+    if (summary.contains("outcome_detail") && summary["outcome_detail"].is_string()) {
+      detail = summary["outcome_detail"].get<std::string>();
+    }
+    landed = summary.contains("landed") && summary["landed"].is_boolean() && summary["landed"].get<bool>();
+    if (outcome == "error" || outcome == "diverged") status = outcome;
+    // A run must exit 0 (landed) or 1 (did not land / failed at run time).
+    if (status == "ok" && st.code != 0 && st.code != 1) {
+      status = "error";
+      detail = "the run process ended with " + st.describe() + "; " + detail;
+    }
+  }
+  if (status != "ok") {
+    outcome = status;
+    landed = false;
+  }
+  rec["status"] = status;
+  rec["outcome"] = outcome;
+  rec["landed"] = landed;
+  rec["detail"] = detail;
+  rec["exit"] = st.describe();
+  rec["wall_s"] = wall_s;
+  rec["stderr_tail"] = file_tail(a.partial + "/stderr.log", 2000);
+  return rec;
+}
+
+}  // namespace
+
+json read_run_record(const std::string& run_dir) {
+  return json::parse(read_file(run_dir + "/run.json"));
+}
+
+void write_plan(const Campaign& c, const std::vector<PlannedRun>& plan, const std::string& out_dir) {
+  fs::create_directories(out_dir + "/runs");
+  const json j = plan_json(c, plan);
+  const std::string path = out_dir + "/plan.json";
+  if (fs::exists(path)) {
+    json old;
+    try {
+      old = json::parse(read_file(path));
+    } catch (const json::exception& e) {
+      throw ConfigError(path + ": unreadable (" + e.what() + "); remove it or use another --out");
+    }
+    if (old.value("master_seed", json()) != j["master_seed"] || old.value("runs", json()) != j["runs"]) {
+      throw ConfigError(out_dir + " holds a different campaign (plan.json differs: other seed, "
+                        "scenarios, runs or dispersions); use another --out to start a new one");
+    }
+    return;
+  }
+  sim::write_text_file(path, j.dump(1) + "\n");
+  sim::write_text_file(out_dir + "/campaign.yaml", read_file(c.file));
+}
+
+RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan,
+                          const RunnerOptions& o) {
+  if (o.jobs < 1) throw ConfigError("--jobs must be >= 1");
+  if (o.shard_count < 1 || o.shard_index < 0 || o.shard_index >= o.shard_count) {
+    throw ConfigError(fmt::format("--shard {}/{}: K must be in [0, M)", o.shard_index, o.shard_count));
+  }
+  std::set<std::string> only(o.only.begin(), o.only.end());
+  for (const std::string& id : only) {
+    if (std::none_of(plan.begin(), plan.end(), [&](const PlannedRun& r) { return r.id == id; })) {
+      throw ConfigError("--only: no run '" + id + "' in the campaign");
+    }
+  }
+  const std::string runs_dir = o.out_dir + "/runs";
+  fs::create_directories(runs_dir);
+  const std::string lander = o.lander_binary.empty() ? sim::self_executable() : o.lander_binary;
+
+  // This invocation's runs, what is complete, and leftovers of interrupted runs.
+  std::vector<const PlannedRun*> todo;
+  RunnerResult res;
+  std::set<std::string> mine;
+  for (const PlannedRun& r : plan) {
+    if (r.plan_index % o.shard_count != o.shard_index) continue;
+    if (!only.empty() && !only.count(r.id)) continue;
+    mine.insert(r.id);
+    const std::string dir = runs_dir + "/" + r.id;
+    if (fs::exists(dir + "/run.json")) {
+      bool redo = false;
+      if (o.retry_failed) {
+        try {
+          redo = read_run_record(dir).value("status", "ok") != "ok";
+        } catch (const std::exception&) {
+          redo = true;
+        }
+      }
+      if (!redo) {
+        ++res.skipped;
+        continue;
+      }
+    }
+    if (fs::exists(dir)) fs::remove_all(dir);  // a failed run to redo, or not ours
+    todo.push_back(&r);
+  }
+  for (const auto& e : fs::directory_iterator(runs_dir)) {
+    const std::string name = e.path().filename().string();
+    const auto pos = name.find(".partial-");
+    if (pos != std::string::npos && mine.count(name.substr(0, pos))) fs::remove_all(e.path());
+  }
+
+  // Each worker gets its share of the cores for the renderer's and OpenCV's threads.
+  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+  const unsigned threads = std::max(1u, cores / static_cast<unsigned>(o.jobs));
+  const std::vector<std::string> env = {
+      "LANDER_DIE_WITH_PARENT=" + std::to_string(getpid()),
+      "LP_NUM_THREADS=" + std::to_string(threads),
+      "OPENCV_FOR_THREADS_NUM=" + std::to_string(threads), "OMP_NUM_THREADS=1"};
+
+  StopSignals signals;
+  const bool tty = isatty(STDERR_FILENO);
+  const auto t0 = std::chrono::steady_clock::now();
+  const int total = static_cast<int>(todo.size());
+  std::vector<Active> active;
+  std::size_t next = 0;
+  auto progress = [&](const std::string& line) {
+    if (!o.progress) return;
+    const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double rate = el > 0 ? res.completed / el * 60.0 : 0.0;
+    const double eta = res.completed > 0 ? (total - res.completed) / (res.completed / el) : NAN;
+    const std::string status = fmt::format(
+        "campaign {}: {}/{} runs done, {} simulator failures, {:.1f} runs/min, ETA {}", c.name,
+        res.completed, total, res.simulator_failures, rate, fmt_duration(eta));
+    if (tty) {
+      std::cerr << "\r\033[K" << (line.empty() ? "" : line + "\n") << status << std::flush;
+    } else if (!line.empty()) {
+      std::cerr << line << "  [" << status << "]\n";
+    }
+  };
+  if (o.progress) {
+    std::cerr << fmt::format("campaign {}: {} runs to do in this shard ({} already complete), {} "
+                             "workers\n",
+                             c.name, total, res.skipped, o.jobs);
+  }
+  while ((next < todo.size() || !active.empty())) {
+    if (g_stop) {
+      for (Active& a : active) {
+        a.child->kill(SIGKILL);
+        a.child->wait();
+        fs::remove_all(a.partial);
+      }
+      res.interrupted = true;
+      break;
+    }
+    while (active.size() < static_cast<std::size_t>(o.jobs) && next < todo.size()) {
+      const PlannedRun* r = todo[next++];
+      Active a;
+      a.run = r;
+      a.partial = runs_dir + "/" + r->id + ".partial-" + std::to_string(getpid());
+      fs::create_directories(a.partial);
+      sim::write_text_file(a.partial + "/scenario.input.yaml", r->scenario_yaml);
+      sim::SpawnOptions so;
+      so.stdout_path = a.partial + "/stdout.log";
+      so.stderr_path = a.partial + "/stderr.log";
+      so.own_process_group = true;
+      so.env = env;
+      a.start = std::chrono::steady_clock::now();
+      a.child = std::make_unique<sim::ChildProcess>(sim::ChildProcess::spawn(
+          {lander, "run", a.partial + "/scenario.input.yaml", "--out", a.partial, "--quiet"}, so));
+      ++res.started;
+      active.push_back(std::move(a));
+    }
+    bool any = false;
+    for (auto it = active.begin(); it != active.end();) {
+      const double limit = o.timeout_s > 0 ? o.timeout_s
+                           : c.run_timeout_s > 0 ? c.run_timeout_s
+                                                 : 120.0 + 20.0 * it->run->duration_s;
+      const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - it->start).count();
+      std::optional<sim::ExitStatus> st = it->child->poll();
+      if (!st && el > limit) {
+        it->timed_out = true;
+        it->child->kill(SIGKILL);
+        st = it->child->wait();
+      }
+      if (!st) {
+        ++it;
+        continue;
+      }
+      any = true;
+      const json rec = finish_record(*it, *st, el);
+      sim::write_text_file(it->partial + "/run.json", rec.dump(1) + "\n");
+      const std::string dir = runs_dir + "/" + it->run->id;
+      std::error_code ec;
+      fs::rename(it->partial, dir, ec);
+      if (ec) {
+        // Another worker (an overlapping shard) finished it first: keep theirs.
+        fs::remove_all(it->partial);
+      }
+      ++res.completed;
+      const std::string status = rec["status"].get<std::string>();
+      if (status != "ok") ++res.simulator_failures;
+      std::string line = fmt::format("  {} {}", it->run->id, rec["outcome"].get<std::string>());
+      if (status != "ok") line += " (simulator failure: " + rec["detail"].get<std::string>() + ")";
+      progress(line);
+      it = active.erase(it);
+    }
+    if (!any) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  if (o.progress && tty) std::cerr << "\n";
+  return res;
+}
+
+}  // namespace lander::campaign
