@@ -314,8 +314,10 @@ YAML::Node Dispersion::sample(std::uint64_t stream_seed, const YAML::Node& like)
   return to_node(v, false);
 }
 
+// 53 bits: the seed stays exact in every JSON reader (JavaScript's numbers are doubles).
 std::uint64_t run_seed(std::uint64_t master_seed, const std::string& scenario_id, int index) {
-  return sim::derive_seed(master_seed, "run/" + scenario_id + "/" + std::to_string(index));
+  return sim::derive_seed(master_seed, "run/" + scenario_id + "/" + std::to_string(index)) &
+         ((std::uint64_t{1} << 53) - 1);
 }
 
 namespace {
