@@ -404,7 +404,7 @@ Campaign Campaign::load(const std::string& path) {
     const YAML::Node e = list[i];
     const std::string where = yaml_where(e, path);
     if (!e.IsMap()) fail(where, "scenarios[" + std::to_string(i) + "]: expected {file: ..., runs: N}");
-    check_keys(e, path, {"file", "runs", "id", "dispersions"}, "scenario entry ");
+    check_keys(e, path, {"file", "runs", "id", "first_seed", "dispersions"}, "scenario entry ");
     ScenarioEntry s;
     s.where = where;
     const YAML::Node f = child(e, "file");
@@ -422,6 +422,13 @@ Campaign Campaign::load(const std::string& path) {
     if (s.runs < 1 || s.runs > 100000) fail(yaml_where(r, path), "runs: must be in [1, 100000]");
     s.id = fs::path(s.file).stem().string();
     if (const YAML::Node n = child(e, "id"); n.IsDefined()) s.id = n.as<std::string>();
+    if (const YAML::Node n = child(e, "first_seed"); n.IsDefined()) {
+      try {
+        s.first_seed = static_cast<long long>(n.as<std::uint32_t>());
+      } catch (const YAML::Exception&) {
+        fail(yaml_where(n, path), "first_seed: expected a whole number in [0, 4294967295], got '" + n.Scalar() + "'");
+      }
+    }
     // Ids become directory names: keep them to a safe alphabet.
     if (s.id.empty() || s.id.size() > 64 ||
         !std::all_of(s.id.begin(), s.id.end(), [](char ch) {
@@ -465,7 +472,7 @@ std::vector<PlannedRun> make_plan(const Campaign& c) {
       r.index = i;
       r.plan_index = static_cast<int>(plan.size());
       r.id = fmt::format("{}-{:0{}d}", e.id, i, width);
-      r.seed = run_seed(c.seed, e.id, i);
+      r.seed = e.first_seed >= 0 ? static_cast<std::uint64_t>(e.first_seed + i) : run_seed(c.seed, e.id, i);
       YAML::Node node = YAML::Clone(file_node);
       if (!node.IsMap()) node = YAML::Node(YAML::NodeType::Map);
       for (const Dispersion* d : ds) {

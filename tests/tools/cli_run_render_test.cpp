@@ -2,6 +2,8 @@
 // loads back to the same scenario, and the same seed gives the same files.
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include <fstream>
 
 #include "lander/sim/scenario.h"
@@ -73,9 +75,10 @@ TEST(CliRun, ClosedLoopWithVideoWritesBothVideosAndASummary) {
 
 namespace {
 
-// `lander batch` on two seeds of a 1 s closed-loop run: one directory per seed, a row per run
-// in batch.csv, and batch.json counting them; the seeds differ (different sensor noise), and
-// each seed's run is the one `lander run --seed` gives.
+// `lander batch` on two seeds of a 1 s closed-loop run (a campaign of one scenario with
+// explicit seeds): one run directory per seed, a row per run in campaign.csv, campaign.json
+// counting them; the seeds differ (different sensor noise), and each seed's run is the one
+// `lander run --seed` gives.
 TEST(CliBatch, TwoSeedsGiveOneRunEachAndTheStatistics) {
   const std::string dir = lander::test::make_temp_dir("lander_batch");
   std::string text = slurp(std::string(LANDER_SCENARIOS_DIR) + "/default.yaml");
@@ -84,15 +87,15 @@ TEST(CliBatch, TwoSeedsGiveOneRunEachAndTheStatistics) {
   const auto r = lander::test::run_lander("batch " + dir + "/s.yaml --seeds 2 --first-seed 40 --out " +
                                           dir + "/mc");
   ASSERT_EQ(r.code, 0) << r.output;  // both runs ended (timeout: 1 s is too short to land)
-  const std::string json = slurp(dir + "/mc/batch.json");
-  EXPECT_NE(json.find("\"runs\": 2"), std::string::npos) << json;
-  EXPECT_NE(json.find("\"landed\": 0"), std::string::npos) << json;
-  EXPECT_NE(json.find("\"timeout\": 2"), std::string::npos) << json;
-  const std::string csv = slurp(dir + "/mc/batch.csv");
-  EXPECT_NE(csv.find("\n40,timeout,0,"), std::string::npos) << csv;
-  EXPECT_NE(csv.find("\n41,timeout,0,"), std::string::npos) << csv;
-  const std::string t40 = slurp(dir + "/mc/seed_40/trace.csv");
-  const std::string t41 = slurp(dir + "/mc/seed_41/trace.csv");
+  const nlohmann::json j = nlohmann::json::parse(slurp(dir + "/mc/campaign.json"));
+  EXPECT_EQ(j.at("overall").at("runs").get<int>(), 2);
+  EXPECT_EQ(j.at("overall").at("landed").get<int>(), 0);
+  EXPECT_EQ(j.at("overall").at("outcomes").at("timeout").get<int>(), 2);
+  const std::string csv = slurp(dir + "/mc/campaign.csv");
+  EXPECT_NE(csv.find("\ns-0000,s,40,timeout,0,"), std::string::npos) << csv;
+  EXPECT_NE(csv.find("\ns-0001,s,41,timeout,0,"), std::string::npos) << csv;
+  const std::string t40 = slurp(dir + "/mc/runs/s-0000/trace.csv");
+  const std::string t41 = slurp(dir + "/mc/runs/s-0001/trace.csv");
   ASSERT_GT(t40.size(), 100u);
   EXPECT_NE(t40, t41);  // other seed, other noise
   ASSERT_EQ(run_lander("run " + dir + "/s.yaml --seed 41 --out " + dir + "/one --quiet"), 1);

@@ -61,8 +61,10 @@ std::vector<std::string> split_commas(const std::string& v) {
   return out;
 }
 
-// Prints the merged figures a person looks at first.
-void print_merge(const campaign::MergeResult& m, const std::string& dir) {
+}  // namespace
+
+// Prints the merged figures a person looks at first (also used by `lander batch`).
+void print_campaign_merge(const campaign::MergeResult& m, const std::string& dir) {
   const auto& o = m.campaign["overall"];
   const auto& lr = o["landing_rate"];
   std::cout << fmt::format("lander campaign: {}: {} of {} runs complete", m.campaign["name"].get<std::string>(),
@@ -89,6 +91,8 @@ void print_merge(const campaign::MergeResult& m, const std::string& dir) {
   if (!m.html_error.empty()) std::cerr << "lander campaign: report.html not written: " << m.html_error << "\n";
 }
 
+namespace {
+
 int cmd_run(const Args& rest) {
   ArgParser a(rest, {"out", "jobs", "shard", "only", "timeout-s"},
               {"retry-failed", "no-report", "no-progress"});
@@ -113,7 +117,7 @@ int cmd_run(const Args& rest) {
   }
   if (a.flag("no-report")) return r.simulator_failures > 0 ? kExitFailure : kExitOk;
   const campaign::MergeResult m = campaign::merge_campaign(o.out_dir);
-  print_merge(m, o.out_dir);
+  print_campaign_merge(m, o.out_dir);
   return (m.simulator_failures > 0 || !m.html_written) ? kExitFailure : kExitOk;
 }
 
@@ -123,7 +127,7 @@ int cmd_report(const Args& rest) {
   campaign::MergeOptions mo;
   mo.html = !a.flag("no-html");
   const campaign::MergeResult m = campaign::merge_campaign(a.positional()[0], mo);
-  print_merge(m, a.positional()[0]);
+  print_campaign_merge(m, a.positional()[0]);
   return (m.simulator_failures > 0 || (mo.html && !m.html_written)) ? kExitFailure : kExitOk;
 }
 

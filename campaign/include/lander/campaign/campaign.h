@@ -8,6 +8,7 @@
 //   scenarios:                                # paths relative to this file
 //     - {file: ../scenarios/default.yaml, runs: 4}
 //     - {file: ../scenarios/cart_1mps_turning.yaml, runs: 2, dispersions: {...}}
+//     - {file: ../scenarios/static_platform.yaml, runs: 5, first_seed: 100}  # seeds 100..104
 //   dispersions:                              # applied to every scenario listed
 //     cart.speed_mps: {uniform: [0.0, 1.5]}
 //     cart.path: {choice: [straight, arc]}
@@ -45,6 +46,7 @@ struct ScenarioEntry {
   std::string file;   ///< scenario path as resolved against the campaign file's folder
   std::string id;     ///< run ids are "<id>-<i>" (default: the file's stem)
   int runs{1};
+  long long first_seed{-1};  ///< >= 0: run i takes the seed first_seed + i (`lander batch`)
   std::vector<Dispersion> dispersions;  ///< entry dispersions (override campaign ones per key)
   std::string where;  ///< "file:line" of the entry
 };
