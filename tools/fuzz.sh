@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Runs each libFuzzer target for SECONDS (default 60) on the committed seed corpus
+# (tests/fuzz/corpus/<target>/, read-only; new inputs go to a scratch corpus) and fails if any
+# input crashes, trips a sanitizer, or throws anything but a ConfigError. Builds build-san/
+# first (tools/sanitize.sh's build) if needed.
+#   bash tools/fuzz.sh 600          # ten minutes each
+set -euo pipefail
+cd "$(dirname "$0")/.."
+SECONDS_EACH="${1:-60}"
+export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=0:abort_on_error=1}"
+export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
+if [ ! -f build-san/CMakeCache.txt ]; then
+  CC=clang CXX=clang++ cmake -S . -B build-san -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DLANDER_FUZZ=ON > build-san.log 2>&1 || { cat build-san.log; exit 1; }
+fi
+cmake --build build-san -j"$(nproc)" --target fuzz_scenario fuzz_target_camera fuzz_detector \
+  >> build-san.log 2>&1 || { tail -50 build-san.log; exit 1; }
+work="$(mktemp -d)"
+trap 'rm -rf -- "$work"' EXIT
+status=0
+for t in fuzz_scenario:scenario fuzz_target_camera:target_camera fuzz_detector:detector; do
+  exe="${t%%:*}"
+  corpus="tests/fuzz/corpus/${t##*:}"
+  mkdir -p "$work/$exe" "$work/$exe-artifacts"
+  echo "fuzz: $exe for ${SECONDS_EACH} s on $corpus"
+  if ! "build-san/tests/fuzz/$exe" -max_total_time="$SECONDS_EACH" -timeout=30 -rss_limit_mb=4096 \
+      -max_len=262144 -print_final_stats=1 -artifact_prefix="$work/$exe-artifacts/" \
+      "$work/$exe" "$corpus" > "$work/$exe.log" 2>&1; then
+    status=1
+    echo "fuzz: $exe FAILED; last lines:"
+    tail -40 "$work/$exe.log"
+    mkdir -p fuzz-artifacts && cp -r "$work/$exe-artifacts" fuzz-artifacts/ || true
+  else
+    grep -E "^stat::number_of_executed_units|^stat::new_units_added|^#[0-9]+ +DONE" "$work/$exe.log" | tr '\n' ' '
+    echo
+  fi
+done
+if [ "$status" -eq 0 ]; then echo "fuzz: 3 passed, 0 failed"; else echo "fuzz: failures (inputs in fuzz-artifacts/)"; fi
+exit "$status"
