@@ -48,6 +48,9 @@ struct Threshold {
 //   unpaired_runs_max_share        not a check: the largest share (0..1) of run ids found in
 //                                  only one campaign that are left out; above it the
 //                                  comparison is refused (default 0.05)
+// Each check is made overall and, when there are several scenarios, per scenario. The four
+// touchdown checks need at least 5 runs landed in both campaigns (in the group), else they are
+// reported as not evaluable (and do not fail).
 struct Thresholds {
   std::string file;
   std::map<std::string, Threshold> items;
