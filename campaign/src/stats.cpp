@@ -97,6 +97,36 @@ Interval paired_bootstrap95(const std::vector<double>& a, const std::vector<doub
   return percentile_interval(stats);
 }
 
+// Newcombe (1998) method 10, with sample 1 = b and sample 2 = a. Counts: a11 = both,
+// a10 = 1 in b only, a01 = 1 in a only, a00 = neither; p1 = (a11 + a10)/n, p2 = (a11 + a01)/n.
+//   Wilson intervals (l1, u1) of p1 and (l2, u2) of p2;
+//   A = a11 a00 - a10 a01; phi = (A - n/2)/sqrt(...) if A > n/2, 0 if 0 <= A <= n/2, A/sqrt(...)
+//   if A < 0, with sqrt(...) = sqrt((a11 + a10)(a01 + a00)(a11 + a01)(a10 + a00)), phi = 0 when
+//   a margin is empty;
+//   L = (p1 - p2) - sqrt((p1 - l1)^2 - 2 phi (p1 - l1)(u2 - p2) + (u2 - p2)^2)
+//   U = (p1 - p2) + sqrt((u1 - p1)^2 - 2 phi (u1 - p1)(p2 - l2) + (p2 - l2)^2)
+Interval paired_proportion_difference95(int both, int only_a, int only_b, int neither) {
+  const int n = both + only_a + only_b + neither;
+  if (n <= 0) return {-1.0, 1.0};
+  const double nn = n, p1 = (both + only_b) / nn, p2 = (both + only_a) / nn;
+  const Interval w1 = wilson95(both + only_b, n), w2 = wilson95(both + only_a, n);
+  const double margins = static_cast<double>(both + only_b) * (only_a + neither) *
+                         static_cast<double>(both + only_a) * (only_b + neither);
+  double phi = 0.0;
+  if (margins > 0) {
+    const double a = static_cast<double>(both) * neither - static_cast<double>(only_b) * only_a;
+    if (a > nn / 2) {
+      phi = (a - nn / 2) / std::sqrt(margins);
+    } else if (a < 0) {
+      phi = a / std::sqrt(margins);
+    }
+  }
+  const double dl1 = p1 - w1.lo, du1 = w1.hi - p1, dl2 = p2 - w2.lo, du2 = w2.hi - p2;
+  const double lower = std::sqrt(std::max(0.0, dl1 * dl1 - 2 * phi * dl1 * du2 + du2 * du2));
+  const double upper = std::sqrt(std::max(0.0, du1 * du1 - 2 * phi * du1 * dl2 + dl2 * dl2));
+  return {std::max(-1.0, p1 - p2 - lower), std::min(1.0, p1 - p2 + upper)};
+}
+
 std::vector<double> ranks(const std::vector<double>& x) {
   std::vector<std::size_t> idx(x.size());
   std::iota(idx.begin(), idx.end(), 0);

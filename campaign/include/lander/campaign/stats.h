@@ -33,6 +33,14 @@ Interval paired_bootstrap95(const std::vector<double>& a, const std::vector<doub
                             const std::function<double(const std::vector<double>&)>& stat,
                             int resamples = 2000, std::uint64_t seed = 1);
 
+// 95 % interval of p_b - p_a for two binary outcomes observed on the same n units (paired
+// proportions, e.g. landed in campaign a and in campaign b, run by run), from the 2x2 counts:
+// `both` (1 in a and b), `only_a`, `only_b`, `neither`. Newcombe (1998), "Improved confidence
+// intervals for the difference between binomial proportions based on paired data", Stat. Med.
+// 17:2635, method 10 (square-and-add of the two Wilson intervals with the continuity-corrected
+// correlation); [-1, 1] when n = 0.
+Interval paired_proportion_difference95(int both, int only_a, int only_b, int neither);
+
 // Ranks 1..n with ties given their average rank.
 std::vector<double> ranks(const std::vector<double>& x);
 
