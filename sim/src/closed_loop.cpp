@@ -11,10 +11,10 @@
 // The simulator keeps the truth; the flight software (estimator/, controller/) sees only
 // the samples.
 #include <chrono>
-#include <map>
 #include <cmath>
-#include <fstream>
 #include <iostream>
+#include <limits>
+#include <map>
 #include <memory>
 
 #include <opencv2/imgproc.hpp>
@@ -27,6 +27,7 @@
 #include "lander/sim/altitude_metrics.h"
 #include "lander/sim/ground_effect.h"
 #include "lander/sim/loop.h"
+#include "lander/sim/output_files.h"
 #include "lander/sim/rotor.h"
 #include "lander/sim/sensors.h"
 #include "lander/sim/truth.h"
@@ -35,6 +36,8 @@
 #include "overlay.h"
 
 namespace lander::sim {
+
+using Json = nlohmann::ordered_json;
 
 namespace {
 
@@ -161,15 +164,17 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
     chase_video = std::make_unique<VideoWriter>(o.out_dir + "/chase.mp4", s.video.chase_width_px,
                                                 s.video.chase_height_px, s.camera.rate_hz);
   }
-  std::ofstream trace(o.out_dir + "/trace.csv");
-  if (!trace) throw std::runtime_error(o.out_dir + "/trace.csv: cannot write");
-  trace << "t_s,mode,x_WB_m,y_WB_m,z_WB_m,roll_rad,pitch_rad,yaw_rad,vx_W_mps,vy_W_mps,vz_W_mps,"
-           "x_WP_m,y_WP_m,z_WP_m,yaw_WP_rad,vx_cart_mps,vy_cart_mps,nav_x_m,nav_y_m,nav_z_m,nav_vx_mps,nav_vy_mps,"
-           "nav_vz_mps,nav_roll_rad,nav_pitch_rad,nav_yaw_rad,fused_z_m,fused_h_surface_m,"
-           "true_h_surface_m,ctl_platform_x_m,ctl_platform_y_m,ctl_platform_z_m,ctl_platform_vx_mps,"
-           "ctl_platform_vy_mps,"
-           "ctl_horizontal_error_m,true_horizontal_error_m,sp_x_m,sp_y_m,sp_z_m,"
-           "vision_detected,w0_radps,w1_radps,w2_radps,w3_radps,w4_radps,w5_radps\n";
+  CsvWriter trace(
+      o.out_dir + "/trace.csv",
+      {"t_s", "mode", "x_WB_m", "y_WB_m", "z_WB_m", "roll_rad", "pitch_rad", "yaw_rad",
+       "vx_W_mps", "vy_W_mps", "vz_W_mps", "x_WP_m", "y_WP_m", "z_WP_m", "yaw_WP_rad",
+       "vx_cart_mps", "vy_cart_mps", "nav_x_m", "nav_y_m", "nav_z_m", "nav_vx_mps",
+       "nav_vy_mps", "nav_vz_mps", "nav_roll_rad", "nav_pitch_rad", "nav_yaw_rad", "fused_z_m",
+       "fused_h_surface_m", "true_h_surface_m", "ctl_platform_x_m", "ctl_platform_y_m",
+       "ctl_platform_z_m", "ctl_platform_vx_mps", "ctl_platform_vy_mps",
+       "ctl_horizontal_error_m", "true_horizontal_error_m", "sp_x_m", "sp_y_m", "sp_z_m",
+       "vision_detected", "w0_radps", "w1_radps", "w2_radps", "w3_radps", "w4_radps",
+       "w5_radps"});
   const int trace_every = std::max(1, static_cast<int>(std::lround(1.0 / (s.trace_rate_hz * dt))));
 
   // ---- statistics ----
@@ -259,18 +264,23 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
           if (s.video.overlays) {
             draw_detection(small, det, static_cast<double>(vw) / cam.width_px);
             const AltitudeEstimate a = fusion.estimate();
-            put_text(small, fmt("t %.2f s   mode ", t_mid) + ctl::to_string(controller.mode()), 0);
-            put_text(small, fmt("fused height above surface %.2f m   z %.2f m", a.h_surface_m, a.z_W_m), 1);
-            put_text(small, det.detected ? fmt("rings %.0f  reproj %.2f px  rho %.4f", det.centres.size(), det.reproj_err_px, det.rho) +
-                                               (det.keyframe ? "" : "  (not a keyframe)")
-                                         : std::string("no target: ") + to_string(det.status), 2);
+            put_text(small, fmt::format("t {:.2f} s   mode {}", t_mid, ctl::to_string(controller.mode())), 0);
+            put_text(small, fmt::format("fused height above surface {:.2f} m   z {:.2f} m",
+                                        a.h_surface_m, a.z_W_m),
+                     1);
+            put_text(small,
+                     det.detected ? fmt::format("rings {}  reproj {:.2f} px  rho {:.4f}{}",
+                                                det.centres.size(), det.reproj_err_px, det.rho,
+                                                det.keyframe ? "" : "  (not a keyframe)")
+                                  : std::string("no target: ") + to_string(det.status),
+                     2);
           }
           cam_video->write(small);
           cv::Mat chase;
           renderer.render_free(m, d, chase_camera(world, s.video), s.video.chase_width_px,
                                s.video.chase_height_px, chase);
           if (s.video.overlays) {
-            put_text(chase, fmt("t %.2f s  mode ", t_mid) + ctl::to_string(controller.mode()), 0);
+            put_text(chase, fmt::format("t {:.2f} s  mode {}", t_mid, ctl::to_string(controller.mode())), 0);
           }
           chase_video->write(chase);
         }
@@ -319,7 +329,7 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
     for (double w : motors.speeds_radps()) thrust += rotor_thrust_N(rp, w);
     truth.thrust_fraction = thrust / (kNumRotors * rotor_thrust_N(rp, rp.w_max_radps));
     if (!truth.X_WB.translation().allFinite() || truth.X_WB.translation().norm() > 1e4) {
-      throw std::runtime_error(fmt("the vehicle state diverged at t = %.3f s", tn));
+      throw std::runtime_error(fmt::format("the vehicle state diverged at t = {:.3f} s", tn));
     }
 
     // ---- sensors -> queues; each height sensor's error against truth at its sampling time ----
@@ -417,9 +427,7 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
       touchdown["surface"] = on_platform ? "platform" : "ground";
       touchdown["t_s"] = tn;
       touchdown["offset_m"] = p_PB.head<2>().norm();
-      touchdown["offset_P_m"] = Json::array();
-      touchdown["offset_P_m"].push(p_PB.x());
-      touchdown["offset_P_m"].push(p_PB.y());
+      touchdown["offset_P_m"] = {p_PB.x(), p_PB.y()};
       touchdown["rel_speed_mps"] = (truth.v_W_mps - v_platform).norm();
       touchdown["rel_vertical_speed_mps"] = truth.v_W_mps.z() - v_platform.z();
       touchdown["tilt_deg"] = tilt * 180.0 / M_PI;
@@ -437,13 +445,14 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
     }
     if (tilt_now > 80.0 * M_PI / 180.0 && (on_ground || on_platform)) {
       outcome = "crashed";
-      outcome_detail = fmt("vehicle tipped over (tilt %.0f deg) at t = %.2f s", tilt_now * 180 / M_PI, tn);
+      outcome_detail = fmt::format("vehicle tipped over (tilt {:.0f} deg) at t = {:.2f} s",
+                                   tilt_now * 180 / M_PI, tn);
       res.sim_s = tn;
       break;
     }
     if (touched_ground && !on_platform && truth.X_WB.translation().z() < 0.5) {
       outcome = "touched_ground";
-      outcome_detail = fmt("the landing gear touched the ground at t = %.2f s", tn);
+      outcome_detail = fmt::format("the landing gear touched the ground at t = {:.2f} s", tn);
       res.sim_s = tn;
       break;
     }
@@ -462,28 +471,28 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
       const Eigen::Vector3d rpy = rpy_of(truth.X_WB.linear()), nrpy = rpy_of(ns.q_WB.toRotationMatrix());
       const Eigen::Vector3d pw = truth.X_WB.translation(), pp = X_WP.translation();
       const Eigen::Vector3d cart_v = world.cart_qd();  // (x, y, yaw) rates
-      char buf[2048];
-      int n = std::snprintf(
-          buf, sizeof(buf),
-          "%.4f,%s,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,"
-          "%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,"
-          "%.5f,%.5f,%.5f,%.5f,%d",
-          tn, ctl::to_string(controller.mode()), pw.x(), pw.y(), pw.z(), rpy.x(), rpy.y(), rpy.z(),
-          truth.v_W_mps.x(), truth.v_W_mps.y(), truth.v_W_mps.z(), pp.x(), pp.y(), pp.z(),
-          rpy_of(X_WP.linear()).z(), cart_v.x(), cart_v.y(), ns.p_W_m.x(), ns.p_W_m.y(), ns.p_W_m.z(), ns.v_W_mps.x(),
-          ns.v_W_mps.y(), ns.v_W_mps.z(), nrpy.x(), nrpy.y(), nrpy.z(), a.z_W_m, a.h_surface_m,
-          std::isfinite(truth.h_surface_m) ? truth.h_surface_m : -1.0, dg.platform_W_m.x(),
-          dg.platform_W_m.y(), dg.platform_W_m.z(), dg.platform_v_W_mps.x(),
-          dg.platform_v_W_mps.y(), dg.horizontal_error_m,
-          (pw - pp).head<2>().norm(), dg.setpoint.p_W_m.x(), dg.setpoint.p_W_m.y(),
-          dg.setpoint.p_W_m.z(), (last_det_t >= 0 && last_det.detected) ? 1 : 0);
-      for (double w : motors.speeds_radps()) n += std::snprintf(buf + n, sizeof(buf) - n, ",%.2f", w);
-      trace << buf << "\n";
+      trace.num(tn, 4).text(ctl::to_string(controller.mode()));
+      for (double v : {pw.x(), pw.y(), pw.z(), rpy.x(), rpy.y(), rpy.z(), truth.v_W_mps.x(),
+                       truth.v_W_mps.y(), truth.v_W_mps.z(), pp.x(), pp.y(), pp.z(),
+                       rpy_of(X_WP.linear()).z(), cart_v.x(), cart_v.y(), ns.p_W_m.x(),
+                       ns.p_W_m.y(), ns.p_W_m.z(), ns.v_W_mps.x(), ns.v_W_mps.y(), ns.v_W_mps.z(),
+                       nrpy.x(), nrpy.y(), nrpy.z(), a.z_W_m, a.h_surface_m,
+                       std::isfinite(truth.h_surface_m) ? truth.h_surface_m : -1.0,
+                       dg.platform_W_m.x(), dg.platform_W_m.y(), dg.platform_W_m.z(),
+                       dg.platform_v_W_mps.x(), dg.platform_v_W_mps.y(), dg.horizontal_error_m,
+                       (pw - pp).head<2>().norm(), dg.setpoint.p_W_m.x(), dg.setpoint.p_W_m.y(),
+                       dg.setpoint.p_W_m.z()}) {
+        trace.num(v, 5);
+      }
+      trace.integer((last_det_t >= 0 && last_det.detected) ? 1 : 0);
+      for (double w : motors.speeds_radps()) trace.num(w, 2);
+      trace.end_row();
     }
     res.sim_s = tn;
     if (o.progress && k % 5000 == 0) {
-      std::cerr << "\rt = " << fmt("%.1f", tn) << " s  mode " << ctl::to_string(controller.mode())
-                << "            " << std::flush;
+      std::cerr << fmt::format("\rt = {:.1f} s  mode {}            ", tn,
+                               ctl::to_string(controller.mode()))
+                << std::flush;
     }
   }
   if (o.progress) std::cerr << "\n";
@@ -491,8 +500,9 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
   res.frames = frames;
   if (cam_video) cam_video->close();
   if (chase_video) chase_video->close();
+  trace.commit();
   if (outcome == "timeout") {
-    outcome_detail = fmt("no landing within duration_s = %.1f s", s.duration_s);
+    outcome_detail = fmt::format("no landing within duration_s = {:.1f} s", s.duration_s);
   }
 
   // ---- summary ----
@@ -500,22 +510,23 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
   summary["landed"] = landed;
   summary["outcome"] = outcome;
   summary["outcome_detail"] = outcome_detail;
-  const Json* off = touchdown.find("offset_m");
-  summary["touchdown_offset_m"] = off ? off->number() : std::nan("");
-  const Json* rs = touchdown.find("rel_speed_mps");
-  summary["touchdown_rel_speed_mps"] = rs ? rs->number() : std::nan("");
-  const Json* tl = touchdown.find("tilt_deg");
-  summary["touchdown_tilt_deg"] = tl ? tl->number() : std::nan("");
+  // Null (NaN) when there was no contact.
+  auto touchdown_value = [&](const char* key) {
+    return touchdown.contains(key) ? touchdown[key].get<double>() : std::nan("");
+  };
+  summary["touchdown_offset_m"] = touchdown_value("offset_m");
+  summary["touchdown_rel_speed_mps"] = touchdown_value("rel_speed_mps");
+  summary["touchdown_tilt_deg"] = touchdown_value("tilt_deg");
   summary["time_to_land_s"] = t_first_contact >= 0 ? t_first_contact : std::nan("");
   summary["touchdown"] = touchdown;
   Json transitions = Json::array();
   for (const auto& tr : controller.transitions()) {
-    Json j = Json::object();
+    Json j;
     j["t_s"] = tr.t_s;
     j["from"] = ctl::to_string(tr.from);
     j["to"] = ctl::to_string(tr.to);
     j["reason"] = tr.reason;
-    transitions.push(j);
+    transitions.push_back(j);
   }
   summary["mode_transitions"] = transitions;
   summary["final_mode"] = ctl::to_string(controller.mode());
@@ -534,7 +545,7 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
   alt["fused_z_max_m"] = fused_z_err.max_abs_m;
   alt["fused_h_surface_rmse_m"] = fused_h_err.rmse_m();
   alt["fused_h_surface_max_m"] = fused_h_err.max_abs_m;
-  alt["by_sensor"] = Json::raw(alt_metrics.to_json());
+  alt["by_sensor"] = alt_metrics.json();
   summary["altitude_fusion"] = alt;
   return res;
 }

@@ -20,13 +20,12 @@ int run(const Args& args) {
   o.out_dir = a.value("out");
   o.video = a.flag("video");
   o.progress = !a.flag("quiet");
-  const sim::Json summary = sim::run_scenario(s, o);
-  std::cout << "lander run: " << s.name << ": " << summary.find("outcome")->string()
+  const nlohmann::ordered_json summary = sim::run_scenario(s, o);
+  std::cout << "lander run: " << s.name << ": " << summary.at("outcome").get<std::string>()
             << "\noutputs in " << o.out_dir << "/ (summary.json, trace.csv, scenario.resolved.yaml"
             << (o.video ? ", camera.mp4, chase.mp4" : "") << ")\n";
-  const sim::Json* landed = summary.find("landed");
   const bool scripted = s.vehicle.control == "kinematic";
-  return (scripted || (landed && landed->boolean())) ? kExitOk : kExitFailure;
+  return (scripted || summary.at("landed").get<bool>()) ? kExitOk : kExitFailure;
 }
 
 const LanderCommand reg("run",

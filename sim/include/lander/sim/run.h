@@ -6,7 +6,8 @@
 
 #include <string>
 
-#include "lander/sim/json.h"
+#include <nlohmann/json.hpp>
+
 #include "lander/sim/scenario.h"
 
 namespace lander::sim {
@@ -25,6 +26,8 @@ void preflight(const Scenario& s, const RunOptions& o);
 
 // Runs the scenario. Inputs are checked first (preflight); once outputs are being written,
 // a failure still leaves a summary.json whose outcome says what went wrong, and rethrows.
-Json run_scenario(const Scenario& s, const RunOptions& o);
+// Every file is written under a temporary name and renamed when complete (output_files.h);
+// a failed write throws OutputError naming the file.
+nlohmann::ordered_json run_scenario(const Scenario& s, const RunOptions& o);
 
 }  // namespace lander::sim
