@@ -81,7 +81,7 @@ TEST(DetectCli, SyntheticCloseRangePngGivesItsPose) {
   ASSERT_TRUE(cv::imwrite(png, render(g, cam, X)));
   const auto r = run_lander("detect " + png + " --camera " + kCamera + " --json");
   ASSERT_EQ(r.code, 0) << r.output;
-  const nlohmann::json j = test::parse_json(r.output);
+  const nlohmann::json j = test::parse_json(r.out);
   EXPECT_TRUE(test::bool_at(j, "detected")) << r.output;
   EXPECT_EQ(test::string_at(j, "source"), "code") << r.output;
   const nlohmann::json& p = test::at_path(j, "p_CP_m");

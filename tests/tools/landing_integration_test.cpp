@@ -3,10 +3,7 @@
 // truth (touchdown offset from the trace, not from anything the flight software reports).
 #include <gtest/gtest.h>
 
-#include <sys/wait.h>
-
 #include <cmath>
-#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <vector>
@@ -31,12 +28,10 @@ TEST(LandingIntegration, ShortLandingOnTheStaticPlatformTouchesDownAtTheCentre) 
                                     "duration_s: 60\n"
                                     "cart: {path: static, start_m: [0.0, 0.0]}\n"
                                     "vehicle: {control: closed_loop, start_m: [-0.6, 0.4, 4.0]}\n";
-  const std::string cmd = std::string(LANDER_BINARY) + " run " + dir + "/s.yaml --out " + dir +
-                          "/out --quiet > " + dir + "/log.txt 2>&1";
-  const int status = std::system(cmd.c_str());
+  const auto r = lander::test::run_lander({"run", dir + "/s.yaml", "--out", dir + "/out", "--quiet"});
   const std::string text = slurp(dir + "/out/summary.json");
-  ASSERT_FALSE(text.empty()) << slurp(dir + "/log.txt");
-  EXPECT_EQ(WEXITSTATUS(status), 0) << text;
+  ASSERT_FALSE(text.empty()) << r.output;
+  EXPECT_EQ(r.code, 0) << text;
   const nlohmann::json summary = lander::test::parse_json(text);
   EXPECT_TRUE(lander::test::bool_at(summary, "landed")) << text;
   EXPECT_LT(lander::test::number_at(summary, "touchdown_offset_m"), kTouchdownOffsetTolM) << text;
