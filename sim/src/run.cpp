@@ -165,6 +165,7 @@ Json run_scenario(const Scenario& s, const RunOptions& o) {
   preflight(s, o);
   // Load the world (may throw ConfigError for an unreadable model) before writing anything.
   World world(s.world, s.camera.intrinsics);
+  if (o.video) world.reserve_offscreen(s.video.chase_width_px, s.video.chase_height_px);
   Renderer renderer(world.model(), s.render);
   make_dirs(o.out_dir);
   write_file_atomic(o.out_dir + "/scenario.resolved.yaml", yaml_to_string(params_to_yaml(s)));

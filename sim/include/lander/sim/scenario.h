@@ -48,8 +48,8 @@ struct VehicleModelParams {
   RotorParams rotor;
   GroundEffectParams ground_effect;
   void validate() const {
-    rotor.validate();
-    ground_effect.validate();
+    validate_nested("rotor", rotor);
+    validate_nested("ground_effect", ground_effect);
   }
 };
 
@@ -86,10 +86,10 @@ struct EstimatorSetup {
   bool measured_latency{false};    ///< use the measured processing time instead (not
                                    ///< deterministic: depends on the machine's load)
   void validate() const {
-    vision.validate();
-    altitude.validate();
-    navigation.validate();
-    require(vision_latency_s >= 0 && vision_latency_s < 1.0, "estimator.vision_latency_ms",
+    validate_nested("vision", vision);
+    validate_nested("altitude", altitude);
+    validate_nested("navigation", navigation);
+    require(vision_latency_s >= 0 && vision_latency_s < 1.0, "vision_latency_ms",
             "must be in [0, 1000) ms");
   }
 };
@@ -114,10 +114,10 @@ struct FaultParams {
   int vision_outlier_frames{3};                  ///< consecutive outlier frames
   double vision_outlier_m{1.0};                  ///< outlier: platform pose shifted along z_C (m)
   void validate() const {
-    require(gps_step_duration_s >= 0, "faults.gps_step_duration_s", "must be >= 0");
-    require(ultrasonic_garbage_duration_s >= 0, "faults.ultrasonic_garbage_duration_s",
+    require(gps_step_duration_s >= 0, "gps_step_duration_s", "must be >= 0");
+    require(ultrasonic_garbage_duration_s >= 0, "ultrasonic_garbage_duration_s",
             "must be >= 0");
-    require(vision_outlier_frames >= 0, "faults.vision_outlier_frames", "must be >= 0");
+    require(vision_outlier_frames >= 0, "vision_outlier_frames", "must be >= 0");
   }
 };
 
@@ -140,12 +140,14 @@ struct VideoParams {
   int camera_scale_div{2};        ///< camera.mp4 is the camera image downscaled by this
   bool overlays{true};            ///< draw fitted ellipses, ring ids, mode, altitude
   void validate() const {
-    require(chase_width_px >= 64 && chase_width_px <= 1280, "video.chase_width_px",
-            "must be in [64, 1280]");
-    require(chase_height_px >= 64 && chase_height_px <= 720, "video.chase_height_px",
-            "must be in [64, 720]");
-    require(chase_distance_m > 0, "video.chase_distance_m", "must be > 0");
-    require(camera_scale_div >= 1 && camera_scale_div <= 8, "video.camera_scale_div",
+    // H.264 (yuv420p) needs even frame sizes; the chase view renders into the offscreen
+    // buffer, which the camera (at most kMaxRenderSidePx) also uses.
+    require(chase_width_px >= 64 && chase_width_px <= 1280 && chase_width_px % 2 == 0,
+            "chase_width_px", "must be even and in [64, 1280]");
+    require(chase_height_px >= 64 && chase_height_px <= 720 && chase_height_px % 2 == 0,
+            "chase_height_px", "must be even and in [64, 720]");
+    require(chase_distance_m > 0, "chase_distance_m", "must be > 0");
+    require(camera_scale_div >= 1 && camera_scale_div <= 8, "camera_scale_div",
             "must be in [1, 8]");
   }
 };
@@ -204,6 +206,9 @@ void visit_fields(V& v, Scenario& p) {
   v.nested("video", p.video);
   v("trace_rate_hz", p.trace_rate_hz);
 }
+
+// Smallest side of camera.mp4 (px) that the video writer accepts.
+constexpr int kMinVideoSidePx = 16;
 
 // Derives the seed of one random stream ("imu", "camera", ...) from the scenario seed.
 std::uint64_t derive_seed(std::uint64_t scenario_seed, const std::string& stream);
