@@ -60,9 +60,20 @@ LandingController::LandingController(const ControllerParams& params, const Camer
   mount.validate();
 }
 
-void LandingController::on_vision(const PlatformObservation& obs) { pending_.push_back(obs); }
+void LandingController::on_vision(const PlatformObservation& obs) {
+  if (!plausible_observation(obs)) {
+    ++rejected_inputs_;
+    return;
+  }
+  pending_.push_back(obs);
+}
 
 void LandingController::on_altitude(const AltitudeEstimate& alt) {
+  if (!std::isfinite(alt.z_W_m) || !std::isfinite(alt.vz_W_mps) ||
+      !std::isfinite(alt.h_surface_m)) {
+    ++rejected_inputs_;
+    return;
+  }
   if (alt.valid) altitude_ = alt;
 }
 
@@ -495,6 +506,14 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
 }
 
 RotorCommand LandingController::step(double t_s, const NavState& nav, const ImuSample& imu) {
+  const bool finite_input = std::isfinite(t_s) && nav.q_WB.coeffs().allFinite() &&
+                            nav.p_W_m.allFinite() && nav.v_W_mps.allFinite() &&
+                            nav.omega_B_radps.allFinite() && imu.gyro_B_radps.allFinite() &&
+                            imu.accel_B_mps2.allFinite();
+  if (!finite_input) {  // hold the last command rather than feed NaN to the cascade
+    ++rejected_inputs_;
+    return last_cmd_;
+  }
   RotorCommand cmd;
   cmd.t_s = t_s;
   if (nav.valid) {
@@ -546,10 +565,12 @@ RotorCommand LandingController::step(double t_s, const NavState& nav, const ImuS
   cmd.motors_cut = cut;
   if (cut) {
     cmd.w_radps.fill(0.0);
+    last_cmd_ = cmd;
     return cmd;
   }
   const MixerOutput out = cascade_.update_inner(t_s, nav, imu);
   cmd.w_radps = out.w_radps;
+  last_cmd_ = cmd;
   return cmd;
 }
 

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <memory>
 
 #include <opencv2/imgproc.hpp>
@@ -15,6 +16,7 @@
 #include "lander/sim/renderer.h"
 #include "lander/sim/video.h"
 #include "lander/sim/world.h"
+#include "fault_hooks.h"
 #include "overlay.h"
 
 namespace lander::sim {
@@ -78,8 +80,11 @@ void run_kinematic(const Scenario& s, const RunOptions& o, World& world, Rendere
   cv::Mat render, chase, small;
   int in_view = 0;
   double render_ms = 0;
+  std::string outcome = "scripted_flight_complete";
+  std::string outcome_detail = "kinematic vehicle: no controller, no landing attempted";
   for (int i = 0; i < n_frames; ++i) {
     const double t0 = std::round(i * period / dt) * dt;
+    run_process_fault_hooks(s.faults, t0);  // abort / hang test hooks
     camera.begin(t0);
     const auto clock0 = std::chrono::steady_clock::now();
     for (double ts : exposure_sample_times(s.camera, t0, dt)) {
@@ -91,6 +96,14 @@ void run_kinematic(const Scenario& s, const RunOptions& o, World& world, Rendere
     render_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - clock0).count();
     const double t_mid = t0 + 0.5 * s.camera.exposure_s;
     set_state(t_mid);
+    if (s.faults.diverge_t_s >= 0 && t_mid >= s.faults.diverge_t_s) {  // test hook
+      world.data()->qpos[world.vehicle_qpos_adr()] = std::numeric_limits<double>::quiet_NaN();
+    }
+    if (!world.state_finite()) {
+      outcome = "diverged";
+      outcome_detail = fmt::format("the scripted vehicle state is not finite at t = {:.3f} s", t_mid);
+      break;
+    }
     CameraFrame frame = camera.finish(i, world.X_WC());
     // Truth for the trace: is the platform centre in the image?
     const Eigen::Vector3d p_C = world.X_WC().inverse() * world.X_WP().translation();
@@ -131,8 +144,8 @@ void run_kinematic(const Scenario& s, const RunOptions& o, World& world, Rendere
   if (chase_video) chase_video->close();
   trace.commit();
   summary["landed"] = false;
-  summary["outcome"] = "scripted_flight_complete";
-  summary["outcome_detail"] = "kinematic vehicle: no controller, no landing attempted";
+  summary["outcome"] = outcome;
+  summary["outcome_detail"] = outcome_detail;
   summary["vision"] = {{"frames", n_frames}, {"frames_platform_in_view", in_view}};
   Json perf;
   perf["render_ms_per_frame_mean"] = render_ms / std::max(1, n_frames);

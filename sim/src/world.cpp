@@ -175,6 +175,16 @@ Eigen::Vector3d World::cart_qd() const {
 
 void World::forward() { mj_forward(m_, d_); }
 
+bool World::state_finite() const {
+  for (int i = 0; i < m_->nq; ++i) {
+    if (!std::isfinite(d_->qpos[i])) return false;
+  }
+  for (int i = 0; i < m_->nv; ++i) {
+    if (!std::isfinite(d_->qvel[i])) return false;
+  }
+  return true;
+}
+
 double World::ray_distance(const Eigen::Vector3d& p_W, const Eigen::Vector3d& dir_W) const {
   mjtNum pnt[3] = {p_W.x(), p_W.y(), p_W.z()};
   Eigen::Vector3d u = dir_W.normalized();

@@ -139,6 +139,8 @@ TEST(ScenarioConfigErrors, ValidationErrorsNameFileLineAndDottedPath) {
        "'estimator.altitude.baro_std_m'"},
       {"estimator:\n  navigation:\n    accel_gate_frac: 2\n", "x.yaml:3",
        "'estimator.navigation.accel_gate_frac'"},
+      {"estimator:\n  sample_limits:\n    max_gyro_radps: 0\n", "x.yaml:3",
+       "'estimator.sample_limits.max_gyro_radps'"},
       {"controller:\n  tracker:\n    poly_order: 9\n", "x.yaml:3",
        "'controller.tracker.poly_order'"},
       {"controller:\n  landing:\n    observe_frames: 0\n", "x.yaml:3",
@@ -146,7 +148,7 @@ TEST(ScenarioConfigErrors, ValidationErrorsNameFileLineAndDottedPath) {
       {"controller:\n  vehicle:\n    mass_kg: -1\n", "x.yaml:3", "'controller.vehicle.mass_kg'"},
       {"controller:\n  cascade:\n    pos_kp_xy: 0\n", "x.yaml:3",
        "'controller.cascade.pos_kp_xy'"},
-      {"faults:\n  gps_step_duration_s: -1\n", "x.yaml:2", "'faults.gps_step_duration_s'"},
+      {"faults:\n  nan_imu_duration_s: -1\n", "x.yaml:2", "'faults.nan_imu_duration_s'"},
       {"video:\n  chase_width_px: 5000\n", "x.yaml:2", "'video.chase_width_px'"},
   };
   for (const BadValue& c : cases) {

@@ -12,7 +12,13 @@
 
 namespace lander::sim {
 
-constexpr int kSummarySchemaVersion = 1;
+// summary.json "outcome": landed | timeout | touched_ground | tipped_over (the vehicle fell
+// over on the ground or platform) | diverged (NaN or runaway physics state, or a MuJoCo
+// instability warning; outputs complete to that time) | error (an exception; trace.csv and
+// the videos are discarded) | scripted_flight_complete (kinematic runs). "crashed" is left to
+// the campaign runner for a simulator process that died. Version 2: crashed -> tipped_over,
+// diverged, rejected_samples.
+constexpr int kSummarySchemaVersion = 2;
 
 struct RunOptions {
   std::string out_dir;         ///< created if missing; files inside are overwritten

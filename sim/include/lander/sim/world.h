@@ -66,6 +66,8 @@ class World {
   int platform_site() const { return platform_site_; }
   int rotor_site(int k) const { return rotor_sites_[k]; }
   int cart_body() const { return cart_body_; }
+  int vehicle_qpos_adr() const { return vehicle_qpos_; }  ///< first qpos of the free joint
+  int vehicle_dof_adr() const { return vehicle_qvel_; }   ///< first dof of the free joint
 
   // Truth (never handed to the estimator or controller).
   Eigen::Isometry3d X_WB() const;  ///< vehicle body pose
@@ -84,6 +86,8 @@ class World {
   Eigen::Vector3d cart_qd() const;  ///< rates
   int cart_dof(int i) const { return cart_dof_[i]; }
   void forward();
+  // True when every position and velocity of the physics state is finite.
+  bool state_finite() const;
 
   // Grows MuJoCo's offscreen buffer to hold a width x height render (call before the
   // renderer is created). Throws ConfigError beyond kMaxRenderSidePx (camera.h).
