@@ -3,19 +3,12 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <limits>
+
+#include <fmt/format.h>
 
 namespace lander::ctl {
 namespace {
-
-// printf-style formatting for transition reasons.
-template <class... Args>
-std::string fmt(const char* f, Args... args) {
-  char buf[256];
-  std::snprintf(buf, sizeof(buf), f, args...);
-  return buf;
-}
 
 double yaw_of(const Eigen::Quaterniond& q_WB) {
   const Eigen::Vector3d x = q_WB * Eigen::Vector3d::UnitX();
@@ -67,9 +60,20 @@ LandingController::LandingController(const ControllerParams& params, const Camer
   mount.validate();
 }
 
-void LandingController::on_vision(const PlatformObservation& obs) { pending_.push_back(obs); }
+void LandingController::on_vision(const PlatformObservation& obs) {
+  if (!plausible_observation(obs)) {
+    ++rejected_inputs_;
+    return;
+  }
+  pending_.push_back(obs);
+}
 
 void LandingController::on_altitude(const AltitudeEstimate& alt) {
+  if (!std::isfinite(alt.z_W_m) || !std::isfinite(alt.vz_W_mps) ||
+      !std::isfinite(alt.h_surface_m)) {
+    ++rejected_inputs_;
+    return;
+  }
   if (alt.valid) altitude_ = alt;
 }
 
@@ -215,11 +219,11 @@ void LandingController::detect_contact(double t_s, const ImuSample& imu, const N
   }
   if (contact_accum_s_ >= L.contact_confirm_s && since_cut >= L.contact_min_time_s) {
     switch_to(t_s, Mode::kLanded,
-              fmt("contact: specific force z %.2f m/s^2 for %.3f s, %.2f s after the cut", f_z,
+              fmt::format("contact: specific force z {:.2f} m/s^2 for {:.3f} s, {:.2f} s after the cut", f_z,
                   contact_accum_s_, since_cut),
               nav);
   } else if (since_cut > L.contact_timeout_s) {
-    switch_to(t_s, Mode::kGoAround, fmt("no contact %.2f s after the motor cut", since_cut), nav);
+    switch_to(t_s, Mode::kGoAround, fmt::format("no contact {:.2f} s after the motor cut", since_cut), nav);
   }
 }
 
@@ -243,7 +247,7 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
     case Mode::kSearch: {
       if (tracker_.keyframe_streak() >= L.reacquire_frames && in_view(t_s, L.loss_timeout_s)) {
         switch_to(t_s, Mode::kObserve,
-                  fmt("target acquired: %d consecutive keyframes", tracker_.keyframe_streak()),
+                  fmt::format("target acquired: {} consecutive keyframes", tracker_.keyframe_streak()),
                   nav);
         return run_mode_machine(t_s, nav);
       }
@@ -263,13 +267,13 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
 
     case Mode::kObserve: {
       if (!in_view(t_s, L.loss_timeout_s)) {
-        switch_to(t_s, Mode::kSearch, fmt("target lost for %.2f s while observing", loss_age),
+        switch_to(t_s, Mode::kSearch, fmt::format("target lost for {:.2f} s while observing", loss_age),
                   nav);
         return hold(hold_p_);
       }
       if (tracker_.total_fixes() >= L.observe_frames) {
         switch_to(t_s, Mode::kApproach,
-                  fmt("%d keyframes observed (>= %d)", tracker_.total_fixes(), L.observe_frames),
+                  fmt::format("{} keyframes observed (>= {})", tracker_.total_fixes(), L.observe_frames),
                   nav);
         return run_mode_machine(t_s, nav);
       }
@@ -328,12 +332,12 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       if (!in_view(t_s, L.loss_timeout_s)) {
         if (diag_.gear_clearance_m < L.go_around_low_height_m) {
           switch_to(t_s, Mode::kGoAround,
-                    fmt("target lost for %.2f s during approach at %.2f m above the platform",
+                    fmt::format("target lost for {:.2f} s during approach at {:.2f} m above the platform",
                         loss_age, diag_.gear_clearance_m),
                     nav);
         } else {
           switch_to(t_s, Mode::kSearch,
-                    fmt("target lost for %.2f s during approach", loss_age), nav);
+                    fmt::format("target lost for {:.2f} s during approach", loss_age), nav);
         }
         return run_mode_machine(t_s, nav);
       }
@@ -355,14 +359,14 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       if (t_s >= approach_.td() && in_view(t_s, L.recovery_loss_timeout_s)) {
         if (diag_.approach_diff_m < L.approach_switch_error_m) {
           switch_to(t_s, Mode::kRecovery,
-                    fmt("|Diff| = %.3f m < %.3f m at t >= t_d", diag_.approach_diff_m,
+                    fmt::format("|Diff| = {:.3f} m < {:.3f} m at t >= t_d", diag_.approach_diff_m,
                         L.approach_switch_error_m),
                     nav);
           return run_mode_machine(t_s, nav);
         }
         if (t_s > approach_.td() + L.approach_settle_timeout_s) {
           switch_to(t_s, Mode::kRecovery,
-                    fmt("|Diff| = %.3f m still above %.3f m %.1f s after t_d; target in view",
+                    fmt::format("|Diff| = {:.3f} m still above {:.3f} m {:.1f} s after t_d; target in view",
                         diag_.approach_diff_m, L.approach_switch_error_m,
                         L.approach_settle_timeout_s),
                     nav);
@@ -375,7 +379,7 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
     case Mode::kRecovery: {
       if (!in_view(t_s, L.recovery_loss_timeout_s)) {
         switch_to(t_s, Mode::kGoAround,
-                  fmt("target lost for %.2f s in recovery at %.2f m above the platform",
+                  fmt::format("target lost for {:.2f} s in recovery at {:.2f} m above the platform",
                       loss_age, diag_.gear_clearance_m),
                   nav);
         return run_mode_machine(t_s, nav);
@@ -386,7 +390,7 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       // the servo holds height and catches up.
       if (e_xy > L.go_around_error_m && h < L.near_height_m) {
         switch_to(t_s, Mode::kGoAround,
-                  fmt("horizontal error %.2f m > %.2f m in recovery", e_xy, L.go_around_error_m),
+                  fmt::format("horizontal error {:.2f} m > {:.2f} m in recovery", e_xy, L.go_around_error_m),
                   nav);
         return run_mode_machine(t_s, nav);
       }
@@ -404,8 +408,8 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
           tracker_.steady(L.steady_window_s, L.steady_tilt_deg, L.max_platform_tilt_deg,
                           &unsteady)) {
         switch_to(t_s, Mode::kTouchdown,
-                  fmt("cut: horizontal error %.3f m, clearance %.3f m (fused %.3f m), relative "
-                      "speed %.2f m/s, platform steady",
+                  fmt::format("cut: horizontal error {:.3f} m, clearance {:.3f} m (fused {:.3f} m), relative "
+                      "speed {:.2f} m/s, platform steady",
                       e_xy, h, h_fused, v_rel.norm()),
                   nav);
         return hold(nav.p_W_m);
@@ -502,6 +506,14 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
 }
 
 RotorCommand LandingController::step(double t_s, const NavState& nav, const ImuSample& imu) {
+  const bool finite_input = std::isfinite(t_s) && nav.q_WB.coeffs().allFinite() &&
+                            nav.p_W_m.allFinite() && nav.v_W_mps.allFinite() &&
+                            nav.omega_B_radps.allFinite() && imu.gyro_B_radps.allFinite() &&
+                            imu.accel_B_mps2.allFinite();
+  if (!finite_input) {  // hold the last command rather than feed NaN to the cascade
+    ++rejected_inputs_;
+    return last_cmd_;
+  }
   RotorCommand cmd;
   cmd.t_s = t_s;
   if (nav.valid) {
@@ -553,10 +565,12 @@ RotorCommand LandingController::step(double t_s, const NavState& nav, const ImuS
   cmd.motors_cut = cut;
   if (cut) {
     cmd.w_radps.fill(0.0);
+    last_cmd_ = cmd;
     return cmd;
   }
   const MixerOutput out = cascade_.update_inner(t_s, nav, imu);
   cmd.w_radps = out.w_radps;
+  last_cmd_ = cmd;
   return cmd;
 }
 

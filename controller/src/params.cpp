@@ -140,23 +140,11 @@ void LandingParams::validate() const {
   require(search_predict_max_s >= 0, "search_predict_max_s", "must be >= 0");
 }
 
-namespace {
-// Runs a section's validate() and prefixes its message with the section name.
-template <class P>
-void validate_section(const P& p, const char* section) {
-  try {
-    p.validate();
-  } catch (const ConfigError& e) {
-    throw ConfigError(std::string(section) + ": " + e.what());
-  }
-}
-}  // namespace
-
 void ControllerParams::validate() const {
-  validate_section(vehicle, "vehicle");
-  validate_section(cascade, "cascade");
-  validate_section(tracker, "tracker");
-  validate_section(landing, "landing");
+  validate_nested("vehicle", vehicle);
+  validate_nested("cascade", cascade);
+  validate_nested("tracker", tracker);
+  validate_nested("landing", landing);
 }
 
 }  // namespace lander::ctl

@@ -98,6 +98,10 @@ PlatformFix PlatformTracker::fix_from(const PlatformObservation& obs, const NavS
 }
 
 bool PlatformTracker::add_observation(const PlatformObservation& obs) {
+  if (!plausible_observation(obs)) {
+    ++rejected_observations_;
+    return false;
+  }
   if (!obs.detected) {
     streak_ = 0;
     return false;

@@ -7,21 +7,84 @@
 
 namespace lander {
 
+ConfigError ConfigError::invalid(const std::string& key, const std::string& problem) {
+  return ConfigError("invalid value for '" + key + "': " + problem, key, problem, false);
+}
+
+ConfigError ConfigError::prefixed(const std::string& prefix) const {
+  return invalid(prefix + "." + key_, problem_);
+}
+
+ConfigError ConfigError::located_at(const std::string& where, const std::string& note) const {
+  return ConfigError(where + ": invalid value for '" + key_ + "'" + note + ": " + problem_, key_,
+                     problem_, true);
+}
+
+namespace {
+// "a.b[2].c" -> "a.b[2]" -> "a.b" -> "a" -> "".
+std::string parent_path(const std::string& path) {
+  const std::size_t cut = path.find_last_of(".[");
+  return cut == std::string::npos ? std::string() : path.substr(0, cut);
+}
+}  // namespace
+
+ConfigError locate_config_error(const ConfigError& e, const std::string& file,
+                                const KeyLines& lines) {
+  if (!e.locatable()) return e;
+  const auto it = lines.find(e.key());
+  if (it != lines.end()) return e.located_at(file + ":" + std::to_string(it->second));
+  const std::string note = " (not set in this file: default value)";
+  for (std::string p = parent_path(e.key()); !p.empty(); p = parent_path(p)) {
+    const auto parent = lines.find(p);
+    if (parent != lines.end()) {
+      return e.located_at(file + ":" + std::to_string(parent->second), note);
+    }
+  }
+  return e.located_at(file, note);
+}
+
 std::string yaml_where(const YAML::Node& node, const std::string& file) {
   const YAML::Mark m = node.Mark();
   if (m.line < 0) return file;
   return file + ":" + std::to_string(m.line + 1);
 }
 
-YamlReader::YamlReader(const YAML::Node& node, std::string file, std::string prefix)
-    : node_(node), file_(std::move(file)), prefix_(std::move(prefix)) {}
+YamlReader::YamlReader(const YAML::Node& node, std::string file, std::string prefix,
+                       KeyLines* lines)
+    : node_(node), file_(std::move(file)), prefix_(std::move(prefix)), lines_(lines) {
+  if (!node_.IsMap()) return;
+  // yaml-cpp keeps every entry of a mapping but a lookup finds only the first: a repeated
+  // key would be silently ignored. Keys must be plain strings (not lists or mappings).
+  std::map<std::string, int> first_line;
+  for (auto it = node_.begin(); it != node_.end(); ++it) {
+    if (!it->first.IsScalar()) {
+      throw ConfigError(yaml_where(it->first, file_) + ": a key in '" +
+                        (prefix_.empty() ? std::string("(top level)") : prefix_) +
+                        "' is not a plain name");
+    }
+    const std::string k = it->first.Scalar();
+    const int line = it->first.Mark().line + 1;
+    const auto [prev, inserted] = first_line.emplace(k, line);
+    if (!inserted) {
+      throw ConfigError(yaml_where(it->first, file_) + ": duplicate key '" + prefix_ + k +
+                        "' (first at line " + std::to_string(prev->second) + ")");
+    }
+  }
+}
+
+void YamlReader::record(const std::string& path, const YAML::Node& at) {
+  if (lines_ && at.Mark().line >= 0) (*lines_)[path] = at.Mark().line + 1;
+}
 
 YAML::Node YamlReader::take(const char* key) {
   consumed_.insert(key);
   if (!node_.IsMap()) return YAML::Node();
   // Look up without inserting: iterate (const lookups on yaml-cpp nodes can create keys).
   for (auto it = node_.begin(); it != node_.end(); ++it) {
-    if (it->first.as<std::string>() == key) return it->second;
+    if (it->first.Scalar() == key) {
+      record(prefix_ + key, it->first);
+      return it->second;
+    }
   }
   return YAML::Node(YAML::NodeType::Undefined);  // tests false with operator!
 }
@@ -75,7 +138,9 @@ void YamlReader::operator()(const char* key, std::vector<double>& field, double 
   if (!n.IsSequence()) fail(n, key, "expected a list of numbers");
   field.clear();
   for (std::size_t i = 0; i < n.size(); ++i) {
-    field.push_back(scalar<double>(n[i], key, "a list of numbers") * scale);
+    const double v = scalar<double>(n[i], key, "a list of numbers");
+    if (!std::isfinite(v)) fail(n[i], key, "list items must be finite");
+    field.push_back(v * scale);
   }
 }
 
@@ -87,11 +152,15 @@ void read_fixed(YamlReader& r, const YAML::Node& n, const char* key,
     r.fail(n, key, "expected a list of " + std::to_string(N) + " numbers");
   }
   for (int i = 0; i < N; ++i) {
+    double v = 0.0;
     try {
-      field[i] = n[i].as<double>() * scale;
+      if (!n[i].IsScalar()) throw YAML::Exception(n[i].Mark(), "not a scalar");
+      v = n[i].as<double>();
     } catch (const YAML::Exception&) {
       r.fail(n, key, "expected a list of " + std::to_string(N) + " numbers");
     }
+    if (!std::isfinite(v)) r.fail(n, key, "list items must be finite");
+    field[i] = v * scale;
   }
 }
 }  // namespace
@@ -109,7 +178,7 @@ void YamlReader::operator()(const char* key, Eigen::Vector3d& field, double scal
 void YamlReader::finish() const {
   if (!node_.IsMap()) return;
   for (auto it = node_.begin(); it != node_.end(); ++it) {
-    const std::string k = it->first.as<std::string>();
+    const std::string k = it->first.Scalar();
     if (!consumed_.count(k)) {
       throw ConfigError(yaml_where(it->first, file_) + ": unknown key '" + prefix_ + k + "'");
     }
@@ -134,12 +203,23 @@ void YamlWriter::operator()(const char* key, const Eigen::Vector3d& field, doubl
 YAML::Node load_yaml_file(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw ConfigError(path + ": cannot open file");
+  std::vector<YAML::Node> docs;
   try {
-    return YAML::Load(in);
-  } catch (const YAML::ParserException& e) {
-    throw ConfigError(path + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " +
-                      e.msg);
+    docs = YAML::LoadAll(in);
+  } catch (const YAML::Exception& e) {  // syntax errors, unknown anchors, ...
+    const std::string where = e.mark.line >= 0 ? ":" + std::to_string(e.mark.line + 1) : "";
+    throw ConfigError(path + where + ": YAML syntax error: " + e.msg);
   }
+  if (in.bad()) throw ConfigError(path + ": read error");
+  if (docs.empty() || docs[0].IsNull()) {
+    throw ConfigError(path + ":1: the file is empty (no keys, only comments or a null "
+                             "document); expected a YAML mapping");
+  }
+  if (docs.size() > 1) {
+    throw ConfigError(yaml_where(docs[1], path) + ": a second YAML document ('---'); expected "
+                                                  "one mapping per file");
+  }
+  return docs[0];
 }
 
 std::string yaml_to_string(const YAML::Node& node) {

@@ -15,20 +15,19 @@ double RingSet::cross_ratio() const {
 }
 
 void RingSet::validate() const {
-  const std::string f = "ring_sets[id " + std::to_string(id) + "].";
-  require(outer_radius_m > 0, f + "outer_radius_m", "must be > 0");
-  require(inner_radius_m > 0, f + "inner_radius_m", "must be > 0");
-  require(inner_radius_m < outer_radius_m, f + "inner_radius_m", "must be < outer_radius_m");
+  require(outer_radius_m > 0, "outer_radius_m", "must be > 0");
+  require(inner_radius_m > 0, "inner_radius_m", "must be > 0");
+  require(inner_radius_m < outer_radius_m, "inner_radius_m", "must be < outer_radius_m");
   for (int i = 0; i < 3; ++i) {
-    require(colour_rgb[i] >= 0 && colour_rgb[i] <= 1, f + "colour_rgb", "components in [0, 1]");
+    require(colour_rgb[i] >= 0 && colour_rgb[i] <= 1, "colour_rgb", "components in [0, 1]");
   }
 }
 
 void CodePatternParams::validate() const {
-  require(cells >= 0, "code_pattern.cells", "must be >= 0 (0 = no code pattern)");
-  require(cell_m > 0, "code_pattern.cell_m", "must be > 0");
-  require(window >= 2 && window <= 6, "code_pattern.window", "must be in [2, 6]");
-  require(cells == 0 || cells >= window, "code_pattern.cells", "must be >= window");
+  require(cells >= 0, "cells", "must be >= 0 (0 = no code pattern)");
+  require(cell_m > 0, "cell_m", "must be > 0");
+  require(window >= 2 && window <= 6, "window", "must be in [2, 6]");
+  require(cells == 0 || cells >= window, "cells", "must be >= window");
 }
 
 const RingSet& TargetGeometry::ring(int id) const {
@@ -45,15 +44,17 @@ void TargetGeometry::validate() const {
   require(std::abs(platform_size_m.x() - platform_size_m.y()) < 1e-9, "platform_size_m",
           "the texture is square: x and y sizes must be equal");
   require(rings.size() >= 4, "ring_sets", "need at least 4 ring sets for a pose");
-  code.validate();
+  validate_nested("code_pattern", code);
   std::unordered_set<int> ids;
-  for (const auto& r : rings) {
-    r.validate();
-    require(ids.insert(r.id).second, "ring_sets", "duplicate id " + std::to_string(r.id));
+  for (std::size_t i = 0; i < rings.size(); ++i) {
+    const RingSet& r = rings[i];
+    validate_item("ring_sets", i, r);
+    const std::string item = "ring_sets[" + std::to_string(i) + "]";
+    require(ids.insert(r.id).second, item + ".id", "duplicate id " + std::to_string(r.id));
     const Eigen::Vector2d half = 0.5 * platform_size_m;
     require(std::abs(r.centre_P_m.x()) + r.outer_radius_m <= half.x() &&
                 std::abs(r.centre_P_m.y()) + r.outer_radius_m <= half.y(),
-            "ring_sets[id " + std::to_string(r.id) + "].centre_m", "ring leaves the platform");
+            item + ".centre_m", "ring set " + std::to_string(r.id) + " leaves the platform");
   }
   // Cross-ratios must be distinct for the identity test (seed 000 eq. 9): 2% apart.
   for (std::size_t i = 0; i < rings.size(); ++i) {

@@ -5,16 +5,17 @@
 namespace lander::sim {
 
 void CartMotionParams::validate() const {
-  require(path == "static" || path == "straight" || path == "arc", "cart.path",
+  require(path == "static" || path == "straight" || path == "arc", "path",
           "must be static, straight or arc (got '" + path + "')");
-  require(speed_profile == "constant" || speed_profile == "stop_and_go", "cart.speed_profile",
+  require(speed_profile == "constant" || speed_profile == "stop_and_go", "speed_profile",
           "must be constant or stop_and_go (got '" + speed_profile + "')");
-  require(speed_mps >= 0 && speed_mps <= 5, "cart.speed_mps", "must be in [0, 5]");
-  require(path != "arc" || std::abs(turn_radius_m) >= 2, "cart.turn_radius_m",
+  require(speed_mps >= 0 && speed_mps <= 5, "speed_mps", "must be in [0, 5]");
+  require(path != "arc" || std::abs(turn_radius_m) >= 2, "turn_radius_m",
           "|radius| must be >= 2 m");
-  require(accel_mps2 > 0 && accel_mps2 <= 5, "cart.accel_mps2", "must be in (0, 5]");
-  require(go_s >= 0 && stop_s >= 0, "cart.go_s", "go_s and stop_s must be >= 0");
-  require(start_delay_s >= 0, "cart.start_delay_s", "must be >= 0");
+  require(accel_mps2 > 0 && accel_mps2 <= 5, "accel_mps2", "must be in (0, 5]");
+  require(go_s >= 0, "go_s", "must be >= 0");
+  require(stop_s >= 0, "stop_s", "must be >= 0");
+  require(start_delay_s >= 0, "start_delay_s", "must be >= 0");
 }
 
 namespace {

@@ -11,11 +11,12 @@
 // The simulator keeps the truth; the flight software (estimator/, controller/) sees only
 // the samples.
 #include <chrono>
-#include <map>
 #include <cmath>
-#include <fstream>
 #include <iostream>
+#include <limits>
+#include <map>
 #include <memory>
+#include <optional>
 
 #include <opencv2/imgproc.hpp>
 
@@ -23,20 +24,29 @@
 #include "lander/estimator/altitude_fusion.h"
 #include "lander/estimator/altitude_vision.h"
 #include "lander/estimator/navigation.h"
+#include "lander/estimator/sample_screen.h"
 #include "lander/estimator/vision_detector.h"
 #include "lander/sim/altitude_metrics.h"
 #include "lander/sim/ground_effect.h"
 #include "lander/sim/loop.h"
+#include "lander/sim/mujoco_errors.h"
+#include "lander/sim/output_files.h"
 #include "lander/sim/rotor.h"
 #include "lander/sim/sensors.h"
 #include "lander/sim/truth.h"
 #include "lander/sim/video.h"
 #include "lander/sim/wind.h"
+#include "fault_hooks.h"
 #include "overlay.h"
 
 namespace lander::sim {
 
+using Json = nlohmann::ordered_json;
+
 namespace {
+
+// Beyond this distance from the origin the vehicle state counts as diverged (m).
+constexpr double kDivergedRange_m = 1e4;
 
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t0) {
@@ -129,14 +139,20 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
   DelayQueue<GpsSample> gps_q;
   DelayQueue<UltrasonicSample> sonar_q;
   DelayQueue<MagSample> mag_q;
-  DelayQueue<PlatformObservation> vision_q;
-  DelayQueue<std::pair<double, double>> vision_alt_q;  // (t, height above plane)
+  // A vision result and, for a keyframe, its height above the target plane (else NaN).
+  struct VisionResult {
+    PlatformObservation obs;
+    double h_plane_m{std::numeric_limits<double>::quiet_NaN()};
+  };
+  DelayQueue<VisionResult> vision_q;
 
   // ---- flight software ----
   const CameraMount mount;  // the vehicle's calibrated camera mount (matches the MJCF)
   RingTargetDetector detector(cam, world.target(), s.estimator.vision);
   Navigation nav(s.estimator.navigation);
   AltitudeFusion fusion(s.estimator.altitude);
+  // Every sample and vision result passes the screen before any filter sees it.
+  SampleScreen screen(s.estimator.sample_limits);
   // The vehicle starts in the air: the filter starts from the first barometer reading, with
   // the split between height and barometer bias left to GPS and vision.
   bool fusion_started = false;
@@ -161,15 +177,17 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
     chase_video = std::make_unique<VideoWriter>(o.out_dir + "/chase.mp4", s.video.chase_width_px,
                                                 s.video.chase_height_px, s.camera.rate_hz);
   }
-  std::ofstream trace(o.out_dir + "/trace.csv");
-  if (!trace) throw std::runtime_error(o.out_dir + "/trace.csv: cannot write");
-  trace << "t_s,mode,x_WB_m,y_WB_m,z_WB_m,roll_rad,pitch_rad,yaw_rad,vx_W_mps,vy_W_mps,vz_W_mps,"
-           "x_WP_m,y_WP_m,z_WP_m,yaw_WP_rad,vx_cart_mps,vy_cart_mps,nav_x_m,nav_y_m,nav_z_m,nav_vx_mps,nav_vy_mps,"
-           "nav_vz_mps,nav_roll_rad,nav_pitch_rad,nav_yaw_rad,fused_z_m,fused_h_surface_m,"
-           "true_h_surface_m,ctl_platform_x_m,ctl_platform_y_m,ctl_platform_z_m,ctl_platform_vx_mps,"
-           "ctl_platform_vy_mps,"
-           "ctl_horizontal_error_m,true_horizontal_error_m,sp_x_m,sp_y_m,sp_z_m,"
-           "vision_detected,w0_radps,w1_radps,w2_radps,w3_radps,w4_radps,w5_radps\n";
+  CsvWriter trace(
+      o.out_dir + "/trace.csv",
+      {"t_s", "mode", "x_WB_m", "y_WB_m", "z_WB_m", "roll_rad", "pitch_rad", "yaw_rad",
+       "vx_W_mps", "vy_W_mps", "vz_W_mps", "x_WP_m", "y_WP_m", "z_WP_m", "yaw_WP_rad",
+       "vx_cart_mps", "vy_cart_mps", "nav_x_m", "nav_y_m", "nav_z_m", "nav_vx_mps",
+       "nav_vy_mps", "nav_vz_mps", "nav_roll_rad", "nav_pitch_rad", "nav_yaw_rad", "fused_z_m",
+       "fused_h_surface_m", "true_h_surface_m", "ctl_platform_x_m", "ctl_platform_y_m",
+       "ctl_platform_z_m", "ctl_platform_vx_mps", "ctl_platform_vy_mps",
+       "ctl_horizontal_error_m", "true_horizontal_error_m", "sp_x_m", "sp_y_m", "sp_z_m",
+       "vision_detected", "w0_radps", "w1_radps", "w2_radps", "w3_radps", "w4_radps",
+       "w5_radps"});
   const int trace_every = std::max(1, static_cast<int>(std::lround(1.0 / (s.trace_rate_hz * dt))));
 
   // ---- statistics ----
@@ -185,6 +203,8 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
   double last_det_t = -1;
   int vision_outliers_left = 0;
   std::string outcome = "timeout", outcome_detail;
+  const FaultParams& F = s.faults;
+  bool diverge_injected = false;
   Eigen::Vector3d v_prev = world.v_WB();
 
   const int n_steps = static_cast<int>(std::floor(s.duration_s / dt + 0.5));
@@ -196,6 +216,7 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
 
   for (int k = 0; k < n_steps; ++k) {
     const double t = k * dt;
+    run_process_fault_hooks(F, t);  // abort / hang test hooks
     // ---- camera: renders at the exposure's sample times (state at time t) ----
     if (!exposing && t + 1e-9 >= next_frame_t) {
       exposing = true;
@@ -242,10 +263,15 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
         }
         const double latency = s.estimator.measured_latency ? proc_ms * 1e-3 : s.estimator.vision_latency_s;
         const double deliver = frame.exposure.t_end_s + latency;
-        vision_q.push(to_platform_observation(det, t_mid), deliver);
+        VisionResult vr{to_platform_observation(det, t_mid)};
+        if (det.detected && det.keyframe) vr.h_plane_m = height_above_target_m(det.X_CP, mount.X_BC());
+        if (fault_active(t_mid, F.nan_vision_t_s, F.nan_vision_duration_s)) {
+          corrupt_observation(vr.obs);  // test hook: a "detection" with a NaN pose
+          vr.h_plane_m = height_above_target_m(vr.obs.X_CP, mount.X_BC());
+        }
+        vision_q.push(vr, deliver);
         if (det.detected && det.keyframe) {
           const double h_vision = height_above_target_m(det.X_CP, mount.X_BC());
-          vision_alt_q.push({t_mid, h_vision}, deliver);
           // Truth at mid-exposure (the state now is the exposure end).
           const double z_mid = world.X_WB().translation().z() -
                                world.v_WB().z() * (frame.exposure.t_end_s - t_mid);
@@ -259,18 +285,23 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
           if (s.video.overlays) {
             draw_detection(small, det, static_cast<double>(vw) / cam.width_px);
             const AltitudeEstimate a = fusion.estimate();
-            put_text(small, fmt("t %.2f s   mode ", t_mid) + ctl::to_string(controller.mode()), 0);
-            put_text(small, fmt("fused height above surface %.2f m   z %.2f m", a.h_surface_m, a.z_W_m), 1);
-            put_text(small, det.detected ? fmt("rings %.0f  reproj %.2f px  rho %.4f", det.centres.size(), det.reproj_err_px, det.rho) +
-                                               (det.keyframe ? "" : "  (not a keyframe)")
-                                         : std::string("no target: ") + to_string(det.status), 2);
+            put_text(small, fmt::format("t {:.2f} s   mode {}", t_mid, ctl::to_string(controller.mode())), 0);
+            put_text(small, fmt::format("fused height above surface {:.2f} m   z {:.2f} m",
+                                        a.h_surface_m, a.z_W_m),
+                     1);
+            put_text(small,
+                     det.detected ? fmt::format("rings {}  reproj {:.2f} px  rho {:.4f}{}",
+                                                det.centres.size(), det.reproj_err_px, det.rho,
+                                                det.keyframe ? "" : "  (not a keyframe)")
+                                  : std::string("no target: ") + to_string(det.status),
+                     2);
           }
           cam_video->write(small);
           cv::Mat chase;
           renderer.render_free(m, d, chase_camera(world, s.video), s.video.chase_width_px,
                                s.video.chase_height_px, chase);
           if (s.video.overlays) {
-            put_text(chase, fmt("t %.2f s  mode ", t_mid) + ctl::to_string(controller.mode()), 0);
+            put_text(chase, fmt::format("t {:.2f} s  mode {}", t_mid, ctl::to_string(controller.mode())), 0);
           }
           chase_video->write(chase);
         }
@@ -299,9 +330,23 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
       d->xfrc_applied[6 * vb + 3 + i] = tau_W[i];
     }
     cart_drive.apply(world, cart_reference(s.cart, t));
-    mj_step(m, d);
-    res.physics_ms += ms_since(tp0);
+    if (F.diverge_t_s >= 0 && t >= F.diverge_t_s && !diverge_injected) {
+      d->qvel[world.vehicle_dof_adr() + 2] = std::numeric_limits<double>::quiet_NaN();  // test hook
+      diverge_injected = true;
+    }
     const double tn = (k + 1) * dt;
+    // A NaN or runaway state makes MuJoCo warn ("... The simulation is unstable"); our warning
+    // handler throws. The run ends there as `diverged`, with its outputs complete to that time.
+    try {
+      mj_step(m, d);
+    } catch (const MujocoError& e) {
+      if (!is_instability_warning(e.what())) throw;
+      outcome = "diverged";
+      outcome_detail = fmt::format("{} (at t = {:.3f} s)", e.what(), tn);
+      res.sim_s = t;
+      break;
+    }
+    res.physics_ms += ms_since(tp0);
 
     // ---- truth ----
     VehicleTruth truth;
@@ -318,39 +363,61 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
     double thrust = 0;
     for (double w : motors.speeds_radps()) thrust += rotor_thrust_N(rp, w);
     truth.thrust_fraction = thrust / (kNumRotors * rotor_thrust_N(rp, rp.w_max_radps));
-    if (!truth.X_WB.translation().allFinite() || truth.X_WB.translation().norm() > 1e4) {
-      throw std::runtime_error(fmt("the vehicle state diverged at t = %.3f s", tn));
+    if (!world.state_finite() || !truth.X_WB.translation().allFinite() ||
+        truth.X_WB.translation().norm() > kDivergedRange_m) {
+      outcome = "diverged";
+      outcome_detail = fmt::format(
+          "the vehicle state is not finite or beyond {:.0f} km of the origin at t = {:.3f} s",
+          kDivergedRange_m / 1000.0, tn);
+      res.sim_s = tn;
+      break;
     }
 
     // ---- sensors -> queues; each height sensor's error against truth at its sampling time ----
     const auto tc0 = Clock::now();
     const double true_z = truth.X_WB.translation().z();
     const double true_h = std::isfinite(truth.h_surface_m) ? truth.h_surface_m : true_z;
-    if (imu.due(tn)) imu_q.push(imu.sample(truth), tn + s.sensors.imu.latency_s);
-    if (mag.due(tn)) mag_q.push(mag.sample(truth), tn + s.sensors.magnetometer.latency_s);
+    // Corrupted-sample test hooks act after the metrics, on the way to the flight software.
+    if (imu.due(tn)) {
+      ImuSample si = imu.sample(truth);
+      if (fault_active(tn, F.nan_imu_t_s, F.nan_imu_duration_s)) corrupt_sample(si);
+      imu_q.push(si, tn + s.sensors.imu.latency_s);
+    }
+    if (mag.due(tn)) {
+      MagSample sm = mag.sample(truth);
+      if (fault_active(tn, F.nan_magnetometer_t_s, F.nan_magnetometer_duration_s)) corrupt_sample(sm);
+      mag_q.push(sm, tn + s.sensors.magnetometer.latency_s);
+    }
     if (baro.due(tn)) {
-      const BaroSample b = baro.sample(truth);
-      alt_metrics.add("baro", isa_altitude_m(b.pressure_pa) - s.estimator.altitude.baro_origin_msl_m - true_z, true_h);
+      BaroSample b = baro.sample(truth);
+      const double h_baro = b.pressure_pa > 0 && std::isfinite(b.pressure_pa)
+                                ? isa_altitude_m(b.pressure_pa)
+                                : std::numeric_limits<double>::quiet_NaN();  // counted, unused
+      alt_metrics.add("baro", h_baro - s.estimator.altitude.baro_origin_msl_m - true_z, true_h);
+      if (fault_active(tn, F.nan_baro_t_s, F.nan_baro_duration_s)) corrupt_sample(b);
       baro_q.push(b, tn + s.sensors.baro.latency_s);
     }
     if (gps.due(tn)) {
-      const GpsSample g = gps.sample(truth);
+      GpsSample g = gps.sample(truth);
       if (g.valid) alt_metrics.add("gps", g.p_W_m.z() - true_z, true_h);
+      if (fault_active(tn, F.absurd_gps_t_s, F.absurd_gps_duration_s)) corrupt_sample(g);
       gps_q.push(g, tn + s.sensors.gps.latency_s);
     }
     if (sonar.due(tn)) {
-      const UltrasonicSample u = sonar.sample(truth);
+      UltrasonicSample u = sonar.sample(truth);
       // Only while the true range is inside the sensor's range (eq. 12): outside it the
       // reading is garbage by design, and garbage that happens to look valid is not "in range".
       if (std::isfinite(truth.range_m) && truth.range_m >= s.sensors.ultrasonic.min_range_m &&
           truth.range_m <= s.sensors.ultrasonic.max_range_m) {
         alt_metrics.add("ultrasonic", u.range_m * truth.X_WB.linear()(2, 2) - true_h, true_h);
       }
+      if (fault_active(tn, F.nan_ultrasonic_t_s, F.nan_ultrasonic_duration_s)) corrupt_sample(u);
       sonar_q.push(u, tn + s.sensors.ultrasonic.latency_s);
     }
 
     // ---- flight software: estimation ----
     for (const BaroSample& b : baro_q.pop_ready(tn)) {
+      if (!screen.accept(b)) continue;
       if (!fusion_started) {
         // In the air at start: the first reading fixes height + baro bias, not their split.
         fusion.reset_from_baro(b);
@@ -359,18 +426,27 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
       fusion.update_baro(b);
     }
     for (const GpsSample& g : gps_q.pop_ready(tn)) {
+      if (!screen.accept(g)) continue;
       nav.add_gps(g);
       if (fusion_started) fusion.update_gps(g);
     }
     for (const UltrasonicSample& u : sonar_q.pop_ready(tn)) {
+      if (!screen.accept(u)) continue;
       if (fusion_started) fusion.update_ultrasonic(u);
     }
-    for (const auto& va : vision_alt_q.pop_ready(tn)) {
-      if (fusion_started) fusion.update_vision(va.first, va.second);
+    for (const VisionResult& vr : vision_q.pop_ready(tn)) {
+      if (!screen.accept(vr.obs)) continue;
+      if (fusion_started && std::isfinite(vr.h_plane_m)) fusion.update_vision(vr.obs.t_s, vr.h_plane_m);
+      controller.on_vision(vr.obs);
     }
-    for (const PlatformObservation& ob : vision_q.pop_ready(tn)) controller.on_vision(ob);
-    for (const MagSample& ms : mag_q.pop_ready(tn)) nav.add_mag(ms);
-    for (const ImuSample& s_imu : imu_q.pop_ready(tn)) {
+    for (const MagSample& ms : mag_q.pop_ready(tn)) {
+      if (screen.accept(ms)) nav.add_mag(ms);
+    }
+    for (const ImuSample& raw_imu : imu_q.pop_ready(tn)) {
+      // A rejected sample is replaced by the last good one (zero-order hold).
+      const std::optional<ImuSample> screened = screen.imu(raw_imu);
+      if (!screened) continue;
+      const ImuSample& s_imu = *screened;
       nav.add_imu(s_imu);
       const NavState ns = nav.state();
       if (fusion_started) {
@@ -417,9 +493,7 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
       touchdown["surface"] = on_platform ? "platform" : "ground";
       touchdown["t_s"] = tn;
       touchdown["offset_m"] = p_PB.head<2>().norm();
-      touchdown["offset_P_m"] = Json::array();
-      touchdown["offset_P_m"].push(p_PB.x());
-      touchdown["offset_P_m"].push(p_PB.y());
+      touchdown["offset_P_m"] = {p_PB.x(), p_PB.y()};
       touchdown["rel_speed_mps"] = (truth.v_W_mps - v_platform).norm();
       touchdown["rel_vertical_speed_mps"] = truth.v_W_mps.z() - v_platform.z();
       touchdown["tilt_deg"] = tilt * 180.0 / M_PI;
@@ -436,14 +510,15 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
       t_landed_confirm = -1;
     }
     if (tilt_now > 80.0 * M_PI / 180.0 && (on_ground || on_platform)) {
-      outcome = "crashed";
-      outcome_detail = fmt("vehicle tipped over (tilt %.0f deg) at t = %.2f s", tilt_now * 180 / M_PI, tn);
+      outcome = "tipped_over";
+      outcome_detail = fmt::format("vehicle tipped over (tilt {:.0f} deg) at t = {:.2f} s",
+                                   tilt_now * 180 / M_PI, tn);
       res.sim_s = tn;
       break;
     }
     if (touched_ground && !on_platform && truth.X_WB.translation().z() < 0.5) {
       outcome = "touched_ground";
-      outcome_detail = fmt("the landing gear touched the ground at t = %.2f s", tn);
+      outcome_detail = fmt::format("the landing gear touched the ground at t = {:.2f} s", tn);
       res.sim_s = tn;
       break;
     }
@@ -462,28 +537,28 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
       const Eigen::Vector3d rpy = rpy_of(truth.X_WB.linear()), nrpy = rpy_of(ns.q_WB.toRotationMatrix());
       const Eigen::Vector3d pw = truth.X_WB.translation(), pp = X_WP.translation();
       const Eigen::Vector3d cart_v = world.cart_qd();  // (x, y, yaw) rates
-      char buf[2048];
-      int n = std::snprintf(
-          buf, sizeof(buf),
-          "%.4f,%s,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,"
-          "%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,"
-          "%.5f,%.5f,%.5f,%.5f,%d",
-          tn, ctl::to_string(controller.mode()), pw.x(), pw.y(), pw.z(), rpy.x(), rpy.y(), rpy.z(),
-          truth.v_W_mps.x(), truth.v_W_mps.y(), truth.v_W_mps.z(), pp.x(), pp.y(), pp.z(),
-          rpy_of(X_WP.linear()).z(), cart_v.x(), cart_v.y(), ns.p_W_m.x(), ns.p_W_m.y(), ns.p_W_m.z(), ns.v_W_mps.x(),
-          ns.v_W_mps.y(), ns.v_W_mps.z(), nrpy.x(), nrpy.y(), nrpy.z(), a.z_W_m, a.h_surface_m,
-          std::isfinite(truth.h_surface_m) ? truth.h_surface_m : -1.0, dg.platform_W_m.x(),
-          dg.platform_W_m.y(), dg.platform_W_m.z(), dg.platform_v_W_mps.x(),
-          dg.platform_v_W_mps.y(), dg.horizontal_error_m,
-          (pw - pp).head<2>().norm(), dg.setpoint.p_W_m.x(), dg.setpoint.p_W_m.y(),
-          dg.setpoint.p_W_m.z(), (last_det_t >= 0 && last_det.detected) ? 1 : 0);
-      for (double w : motors.speeds_radps()) n += std::snprintf(buf + n, sizeof(buf) - n, ",%.2f", w);
-      trace << buf << "\n";
+      trace.num(tn, 4).text(ctl::to_string(controller.mode()));
+      for (double v : {pw.x(), pw.y(), pw.z(), rpy.x(), rpy.y(), rpy.z(), truth.v_W_mps.x(),
+                       truth.v_W_mps.y(), truth.v_W_mps.z(), pp.x(), pp.y(), pp.z(),
+                       rpy_of(X_WP.linear()).z(), cart_v.x(), cart_v.y(), ns.p_W_m.x(),
+                       ns.p_W_m.y(), ns.p_W_m.z(), ns.v_W_mps.x(), ns.v_W_mps.y(), ns.v_W_mps.z(),
+                       nrpy.x(), nrpy.y(), nrpy.z(), a.z_W_m, a.h_surface_m,
+                       std::isfinite(truth.h_surface_m) ? truth.h_surface_m : -1.0,
+                       dg.platform_W_m.x(), dg.platform_W_m.y(), dg.platform_W_m.z(),
+                       dg.platform_v_W_mps.x(), dg.platform_v_W_mps.y(), dg.horizontal_error_m,
+                       (pw - pp).head<2>().norm(), dg.setpoint.p_W_m.x(), dg.setpoint.p_W_m.y(),
+                       dg.setpoint.p_W_m.z()}) {
+        trace.num(v, 5);
+      }
+      trace.integer((last_det_t >= 0 && last_det.detected) ? 1 : 0);
+      for (double w : motors.speeds_radps()) trace.num(w, 2);
+      trace.end_row();
     }
     res.sim_s = tn;
     if (o.progress && k % 5000 == 0) {
-      std::cerr << "\rt = " << fmt("%.1f", tn) << " s  mode " << ctl::to_string(controller.mode())
-                << "            " << std::flush;
+      std::cerr << fmt::format("\rt = {:.1f} s  mode {}            ", tn,
+                               ctl::to_string(controller.mode()))
+                << std::flush;
     }
   }
   if (o.progress) std::cerr << "\n";
@@ -491,8 +566,9 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
   res.frames = frames;
   if (cam_video) cam_video->close();
   if (chase_video) chase_video->close();
+  trace.commit();
   if (outcome == "timeout") {
-    outcome_detail = fmt("no landing within duration_s = %.1f s", s.duration_s);
+    outcome_detail = fmt::format("no landing within duration_s = {:.1f} s", s.duration_s);
   }
 
   // ---- summary ----
@@ -500,22 +576,23 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
   summary["landed"] = landed;
   summary["outcome"] = outcome;
   summary["outcome_detail"] = outcome_detail;
-  const Json* off = touchdown.find("offset_m");
-  summary["touchdown_offset_m"] = off ? off->number() : std::nan("");
-  const Json* rs = touchdown.find("rel_speed_mps");
-  summary["touchdown_rel_speed_mps"] = rs ? rs->number() : std::nan("");
-  const Json* tl = touchdown.find("tilt_deg");
-  summary["touchdown_tilt_deg"] = tl ? tl->number() : std::nan("");
+  // Null (NaN) when there was no contact.
+  auto touchdown_value = [&](const char* key) {
+    return touchdown.contains(key) ? touchdown[key].get<double>() : std::nan("");
+  };
+  summary["touchdown_offset_m"] = touchdown_value("offset_m");
+  summary["touchdown_rel_speed_mps"] = touchdown_value("rel_speed_mps");
+  summary["touchdown_tilt_deg"] = touchdown_value("tilt_deg");
   summary["time_to_land_s"] = t_first_contact >= 0 ? t_first_contact : std::nan("");
   summary["touchdown"] = touchdown;
   Json transitions = Json::array();
   for (const auto& tr : controller.transitions()) {
-    Json j = Json::object();
+    Json j;
     j["t_s"] = tr.t_s;
     j["from"] = ctl::to_string(tr.from);
     j["to"] = ctl::to_string(tr.to);
     j["reason"] = tr.reason;
-    transitions.push(j);
+    transitions.push_back(j);
   }
   summary["mode_transitions"] = transitions;
   summary["final_mode"] = ctl::to_string(controller.mode());
@@ -529,12 +606,20 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
   vision["not_detected_by_reason"] = reasons;
   vision["outliers_injected"] = res.outliers_injected;
   summary["vision"] = vision;
+  const RejectedSamples& rej = screen.rejected();
+  summary["rejected_samples"] = {{"imu", rej.imu},
+                                 {"baro", rej.baro},
+                                 {"gps", rej.gps},
+                                 {"ultrasonic", rej.ultrasonic},
+                                 {"magnetometer", rej.magnetometer},
+                                 {"vision", rej.vision},
+                                 {"total", rej.total()}};
   Json alt = Json::object();
   alt["fused_z_rmse_m"] = fused_z_err.rmse_m();
   alt["fused_z_max_m"] = fused_z_err.max_abs_m;
   alt["fused_h_surface_rmse_m"] = fused_h_err.rmse_m();
   alt["fused_h_surface_max_m"] = fused_h_err.max_abs_m;
-  alt["by_sensor"] = Json::raw(alt_metrics.to_json());
+  alt["by_sensor"] = alt_metrics.json();
   summary["altitude_fusion"] = alt;
   return res;
 }

@@ -14,7 +14,8 @@
 
 #include "lander/estimator/camera_cv.h"
 #include "lander/estimator/vision_detector.h"
-#include "lander/sim/json.h"
+#include "lander/sim/output_files.h"
+#include "lander/sim/stats.h"
 
 namespace lander::sim {
 
@@ -49,6 +50,8 @@ Eigen::Isometry3d bench_camera_pose_P(double altitude_m, double tilt_deg, double
 
 namespace {
 
+using Json = nlohmann::ordered_json;
+
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // CPU time of the calling thread (ms): the per-frame cost on one core, unaffected by other
@@ -73,36 +76,18 @@ struct Stats {
   int frames = 0, detected = 0, empty = 0, false_pos = 0;
   std::vector<double> centre_err, reproj, pos, rot, ms, ms_tracking;
 
-  static double mean(const std::vector<double>& v) {
-    if (v.empty()) return kNaN;
-    double s = 0;
-    for (double x : v) s += x;
-    return s / v.size();
-  }
-  static double var(const std::vector<double>& v) {
-    if (v.size() < 2) return kNaN;
-    const double m = mean(v);
-    double s = 0;
-    for (double x : v) s += (x - m) * (x - m);
-    return s / (v.size() - 1);
-  }
-  static double median(std::vector<double> v) {
-    if (v.empty()) return kNaN;
-    std::sort(v.begin(), v.end());
-    const std::size_t n = v.size();
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-  }
   Json json(bool with_tracking) const {
     Json j = Json::object();
     j["detection_rate"] = frames ? static_cast<double>(detected) / frames : kNaN;
     j["false_positive_rate"] = empty ? static_cast<double>(false_pos) / empty : kNaN;
-    j["centre_err_px_mean"] = mean(centre_err);
-    j["reproj_err_px_mean"] = mean(reproj);
-    j["reproj_err_px_var"] = var(reproj);
-    j["pos_err_m_mean"] = mean(pos);
-    j["rot_err_deg_mean"] = mean(rot);
-    j["ms_per_frame_median"] = median(ms);
-    if (with_tracking) j["ms_per_frame_median_tracking"] = median(ms_tracking);
+    const SampleSummary reproj_s = summarize(reproj);
+    j["centre_err_px_mean"] = summarize(centre_err).mean;
+    j["reproj_err_px_mean"] = reproj_s.mean;
+    j["reproj_err_px_var"] = reproj_s.var;
+    j["pos_err_m_mean"] = summarize(pos).mean;
+    j["rot_err_deg_mean"] = summarize(rot).mean;
+    j["ms_per_frame_median"] = summarize(ms).median;
+    if (with_tracking) j["ms_per_frame_median_tracking"] = summarize(ms_tracking).median;
     j["frames"] = frames;
     j["detected"] = detected;
     j["empty_frames"] = empty;
@@ -335,7 +320,7 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
   cfg["ms_per_frame"] = "thread CPU time of one detection (+ PnP), one thread";
   cfg["reproj_err"] = "per-frame RMS of detected points vs the fitted pose (eq. 30 / N, sqrt)";
   out["config"] = cfg;
-  return out.dump(2);
+  return json_text(out);
 }
 
 BenchRenderFn make_synthetic_bench_renderer(const TargetGeometry& g, const CameraModel& cam,

@@ -1,11 +1,30 @@
+// LEGACY facade for tools/lander/cmd_batch.cpp; see json.h.
 #include "lander/sim/json.h"
 
-#include <cmath>
-#include <cstdio>
-#include <fstream>
 #include <stdexcept>
 
 namespace lander::sim {
+
+Json::Json(const nlohmann::ordered_json& j) {
+  if (j.is_boolean()) {
+    *this = Json(j.get<bool>());
+  } else if (j.is_number_integer()) {
+    *this = Json(j.get<long long>());
+  } else if (j.is_number()) {
+    *this = Json(j.get<double>());
+  } else if (j.is_string()) {
+    *this = Json(j.get<std::string>());
+  } else if (j.is_array()) {
+    type_ = Type::Array;
+    for (const auto& v : j) items_.emplace_back(v);
+  } else if (j.is_object()) {
+    type_ = Type::Object;
+    for (auto it = j.begin(); it != j.end(); ++it) {
+      keys_.push_back(it.key());
+      items_.emplace_back(it.value());
+    }
+  }
+}
 
 Json& Json::operator[](const std::string& key) {
   if (type_ == Type::Null) type_ = Type::Object;
@@ -32,104 +51,24 @@ Json& Json::push(Json v) {
   return items_.back();
 }
 
-namespace {
-void escape(std::string& out, const std::string& s) {
-  out += '"';
-  for (char c : s) {
-    switch (c) {
-      case '"': out += "\\\""; break;
-      case '\\': out += "\\\\"; break;
-      case '\n': out += "\\n"; break;
-      case '\t': out += "\\t"; break;
-      case '\r': out += "\\r"; break;
-      default:
-        if (static_cast<unsigned char>(c) < 0x20) {
-          char buf[8];
-          std::snprintf(buf, sizeof(buf), "\\u%04x", c);
-          out += buf;
-        } else {
-          out += c;
-        }
-    }
-  }
-  out += '"';
-}
-}  // namespace
-
-void Json::dump_to(std::string& out, int indent, int depth) const {
-  const std::string pad = indent > 0 ? "\n" + std::string((depth + 1) * indent, ' ') : "";
-  const std::string pad_end = indent > 0 ? "\n" + std::string(depth * indent, ' ') : "";
+nlohmann::ordered_json Json::to_nlohmann() const {
   switch (type_) {
-    case Type::Null: out += "null"; break;
-    case Type::Bool: out += bool_ ? "true" : "false"; break;
-    case Type::Number: {
-      if (!std::isfinite(num_)) {
-        out += "null";
-      } else if (is_int_) {
-        out += std::to_string(int_);
-      } else {
-        char buf[32];
-        std::snprintf(buf, sizeof(buf), "%.17g", num_);
-        // Prefer the shortest representation that round-trips.
-        for (int prec = 6; prec < 17; ++prec) {
-          char shorter[32];
-          std::snprintf(shorter, sizeof(shorter), "%.*g", prec, num_);
-          if (std::strtod(shorter, nullptr) == num_) {
-            std::snprintf(buf, sizeof(buf), "%s", shorter);
-            break;
-          }
-        }
-        out += buf;
-      }
-      break;
+    case Type::Null: return nullptr;
+    case Type::Bool: return bool_;
+    case Type::Number: return is_int_ ? nlohmann::ordered_json(int_) : nlohmann::ordered_json(num_);
+    case Type::String: return str_;
+    case Type::Array: {
+      nlohmann::ordered_json a = nlohmann::ordered_json::array();
+      for (const auto& v : items_) a.push_back(v.to_nlohmann());
+      return a;
     }
-    case Type::String: escape(out, str_); break;
-    case Type::Raw: {
-      std::string t = str_;
-      while (!t.empty() && (t.back() == '\n' || t.back() == ' ')) t.pop_back();
-      out += t;
-      break;
+    case Type::Object: {
+      nlohmann::ordered_json o = nlohmann::ordered_json::object();
+      for (std::size_t i = 0; i < keys_.size(); ++i) o[keys_[i]] = items_[i].to_nlohmann();
+      return o;
     }
-    case Type::Array:
-      if (items_.empty()) { out += "[]"; break; }
-      out += '[';
-      for (std::size_t i = 0; i < items_.size(); ++i) {
-        out += (i ? "," : "") + pad;
-        items_[i].dump_to(out, indent, depth + 1);
-      }
-      out += pad_end + "]";
-      break;
-    case Type::Object:
-      if (keys_.empty()) { out += "{}"; break; }
-      out += '{';
-      for (std::size_t i = 0; i < keys_.size(); ++i) {
-        out += (i ? "," : "") + pad;
-        escape(out, keys_[i]);
-        out += indent > 0 ? ": " : ":";
-        items_[i].dump_to(out, indent, depth + 1);
-      }
-      out += pad_end + "}";
-      break;
   }
-}
-
-std::string Json::dump(int indent) const {
-  std::string out;
-  dump_to(out, indent, 0);
-  return out + (indent > 0 ? "\n" : "");
-}
-
-void write_text_file(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::binary);
-    if (!f) throw std::runtime_error(path + ": cannot write file");
-    f << text;
-    if (!f) throw std::runtime_error(path + ": write failed");
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    throw std::runtime_error(path + ": cannot rename temporary file into place");
-  }
+  return nullptr;
 }
 
 }  // namespace lander::sim

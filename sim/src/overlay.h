@@ -1,13 +1,13 @@
 // Small helpers shared by the scripted and closed-loop runs (private to sim/): video overlay
-// text, printf-style formatting, roll-pitch-yaw for traces, the chase camera.
+// text, roll-pitch-yaw for traces, the chase camera. Text is formatted with fmt::format.
 #pragma once
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <string>
 
 #include <Eigen/Core>
+#include <fmt/format.h>
 #include <mujoco/mujoco.h>
 #include <opencv2/imgproc.hpp>
 
@@ -26,12 +26,6 @@ inline void put_text(cv::Mat& img, const std::string& text, int line) {
   cv::putText(img, text, org, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
   cv::putText(img, text, org, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1,
               cv::LINE_AA);
-}
-
-inline std::string fmt(const char* f, double a = 0, double b = 0, double c = 0, double d = 0) {
-  char buf[160];
-  std::snprintf(buf, sizeof(buf), f, a, b, c, d);
-  return buf;
 }
 
 // A chase camera behind and above the vehicle: a free camera whose look-at point is the

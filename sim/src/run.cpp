@@ -4,20 +4,24 @@
 
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <memory>
 
 #include <opencv2/imgproc.hpp>
 
 #include "lander/sim/loop.h"
-#include "overlay.h"
+#include "lander/sim/output_files.h"
 #include "lander/sim/renderer.h"
 #include "lander/sim/video.h"
 #include "lander/sim/world.h"
+#include "fault_hooks.h"
+#include "overlay.h"
 
 namespace lander::sim {
+
+using Json = nlohmann::ordered_json;
 
 namespace {
 
@@ -44,33 +48,9 @@ std::string parent_dir(const std::string& p) {
   return pos == 0 ? "/" : p.substr(0, pos);
 }
 
-// Fixed-precision CSV rows; the header is written once.
-class TraceWriter {
- public:
-  TraceWriter(const std::string& path, const std::vector<std::string>& columns)
-      : f_(path), n_(columns.size()) {
-    if (!f_) throw std::runtime_error(path + ": cannot write");
-    for (std::size_t i = 0; i < columns.size(); ++i) f_ << (i ? "," : "") << columns[i];
-    f_ << "\n";
-  }
-  void row(const std::vector<double>& values, const std::string& tail = "") {
-    char buf[64];
-    for (std::size_t i = 0; i < values.size(); ++i) {
-      std::snprintf(buf, sizeof(buf), "%.6f", values[i]);
-      f_ << (i ? "," : "") << buf;
-    }
-    if (!tail.empty()) f_ << "," << tail;
-    f_ << "\n";
-  }
-
- private:
-  std::ofstream f_;
-  std::size_t n_;
-};
-
 // Scripted flight: the vehicle follows the waypoints, the cart its path; every camera frame
 // is rendered (with blur from the scripted motion when blur_samples > 1).
-Json run_kinematic(const Scenario& s, const RunOptions& o, World& world, Renderer& renderer,
+void run_kinematic(const Scenario& s, const RunOptions& o, World& world, Renderer& renderer,
                    Json& summary) {
   CameraPipeline camera(s.camera, derive_seed(s.seed, "camera"));
   const double dt = s.world.physics_dt_s;
@@ -82,7 +62,7 @@ Json run_kinematic(const Scenario& s, const RunOptions& o, World& world, Rendere
     chase_video = std::make_unique<VideoWriter>(o.out_dir + "/chase.mp4", s.video.chase_width_px,
                                                 s.video.chase_height_px, s.camera.rate_hz);
   }
-  TraceWriter trace(o.out_dir + "/trace.csv",
+  CsvWriter trace(o.out_dir + "/trace.csv",
                     {"t_s", "frame", "x_WB_m", "y_WB_m", "z_WB_m", "roll_rad", "pitch_rad",
                      "yaw_rad", "x_WP_m", "y_WP_m", "z_WP_m", "yaw_WP_rad", "h_above_P_m",
                      "platform_in_view"});
@@ -100,8 +80,11 @@ Json run_kinematic(const Scenario& s, const RunOptions& o, World& world, Rendere
   cv::Mat render, chase, small;
   int in_view = 0;
   double render_ms = 0;
+  std::string outcome = "scripted_flight_complete";
+  std::string outcome_detail = "kinematic vehicle: no controller, no landing attempted";
   for (int i = 0; i < n_frames; ++i) {
     const double t0 = std::round(i * period / dt) * dt;
+    run_process_fault_hooks(s.faults, t0);  // abort / hang test hooks
     camera.begin(t0);
     const auto clock0 = std::chrono::steady_clock::now();
     for (double ts : exposure_sample_times(s.camera, t0, dt)) {
@@ -113,6 +96,14 @@ Json run_kinematic(const Scenario& s, const RunOptions& o, World& world, Rendere
     render_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - clock0).count();
     const double t_mid = t0 + 0.5 * s.camera.exposure_s;
     set_state(t_mid);
+    if (s.faults.diverge_t_s >= 0 && t_mid >= s.faults.diverge_t_s) {  // test hook
+      world.data()->qpos[world.vehicle_qpos_adr()] = std::numeric_limits<double>::quiet_NaN();
+    }
+    if (!world.state_finite()) {
+      outcome = "diverged";
+      outcome_detail = fmt::format("the scripted vehicle state is not finite at t = {:.3f} s", t_mid);
+      break;
+    }
     CameraFrame frame = camera.finish(i, world.X_WC());
     // Truth for the trace: is the platform centre in the image?
     const Eigen::Vector3d p_C = world.X_WC().inverse() * world.X_WP().translation();
@@ -123,20 +114,25 @@ Json run_kinematic(const Scenario& s, const RunOptions& o, World& world, Rendere
     in_view += visible;
     const Eigen::Isometry3d X_WB = world.X_WB(), X_WP = world.X_WP();
     const Eigen::Vector3d rpy = rpy_of(X_WB.linear());
-    trace.row({t_mid, static_cast<double>(i), X_WB.translation().x(), X_WB.translation().y(),
-               X_WB.translation().z(), rpy.x(), rpy.y(), rpy.z(), X_WP.translation().x(),
-               X_WP.translation().y(), X_WP.translation().z(), rpy_of(X_WP.linear()).z(),
-               X_WB.translation().z() - X_WP.translation().z(), visible ? 1.0 : 0.0});
+    for (double v : {t_mid, static_cast<double>(i), X_WB.translation().x(), X_WB.translation().y(),
+                     X_WB.translation().z(), rpy.x(), rpy.y(), rpy.z(), X_WP.translation().x(),
+                     X_WP.translation().y(), X_WP.translation().z(), rpy_of(X_WP.linear()).z(),
+                     X_WB.translation().z() - X_WP.translation().z(), visible ? 1.0 : 0.0}) {
+      trace.num(v, 6);
+    }
+    trace.end_row();
     if (o.video) {
       cv::resize(frame.bgr, small, cv::Size(cw, ch), 0, 0, cv::INTER_AREA);
       if (s.video.overlays) {
-        put_text(small, fmt("t %.2f s  frame %.0f  (scripted, no estimator)", t_mid, i), 0);
-        put_text(small, fmt("true height above platform %.2f m", X_WB.translation().z() - X_WP.translation().z()), 1);
+        put_text(small, fmt::format("t {:.2f} s  frame {}  (scripted, no estimator)", t_mid, i), 0);
+        put_text(small, fmt::format("true height above platform {:.2f} m",
+                                    X_WB.translation().z() - X_WP.translation().z()),
+                 1);
       }
       cam_video->write(small);
       renderer.render_free(world.model(), world.data(), chase_camera(world, s.video),
                            s.video.chase_width_px, s.video.chase_height_px, chase);
-      if (s.video.overlays) put_text(chase, fmt("t %.2f s  chase view", t_mid), 0);
+      if (s.video.overlays) put_text(chase, fmt::format("t {:.2f} s  chase view", t_mid), 0);
       chase_video->write(chase);
     }
     if (o.progress && i % 30 == 0) {
@@ -146,17 +142,14 @@ Json run_kinematic(const Scenario& s, const RunOptions& o, World& world, Rendere
   if (o.progress) std::cerr << "\n";
   if (cam_video) cam_video->close();
   if (chase_video) chase_video->close();
+  trace.commit();
   summary["landed"] = false;
-  summary["outcome"] = "scripted_flight_complete";
-  summary["outcome_detail"] = "kinematic vehicle: no controller, no landing attempted";
-  Json vision = Json::object();
-  vision["frames"] = n_frames;
-  vision["frames_platform_in_view"] = in_view;
-  summary["vision"] = vision;
-  Json perf = Json::object();
+  summary["outcome"] = outcome;
+  summary["outcome_detail"] = outcome_detail;
+  summary["vision"] = {{"frames", n_frames}, {"frames_platform_in_view", in_view}};
+  Json perf;
   perf["render_ms_per_frame_mean"] = render_ms / std::max(1, n_frames);
-  write_text_file(o.out_dir + "/performance.json", perf.dump());
-  return summary;
+  write_json_file(o.out_dir + "/performance.json", perf);
 }
 
 }  // namespace
@@ -185,13 +178,14 @@ Json run_scenario(const Scenario& s, const RunOptions& o) {
   preflight(s, o);
   // Load the world (may throw ConfigError for an unreadable model) before writing anything.
   World world(s.world, s.camera.intrinsics);
+  if (o.video) world.reserve_offscreen(s.video.chase_width_px, s.video.chase_height_px);
   Renderer renderer(world.model(), s.render);
   make_dirs(o.out_dir);
-  write_text_file(o.out_dir + "/scenario.resolved.yaml", yaml_to_string(params_to_yaml(s)));
+  write_file_atomic(o.out_dir + "/scenario.resolved.yaml", yaml_to_string(params_to_yaml(s)));
   Json summary = Json::object();
   summary["schema_version"] = kSummarySchemaVersion;
   summary["scenario"] = s.name;
-  summary["seed"] = static_cast<long long>(s.seed);
+  summary["seed"] = s.seed;
   summary["vehicle_control"] = s.vehicle.control;
   summary["render_backend"] = renderer.backend_description();
   try {
@@ -199,28 +193,26 @@ Json run_scenario(const Scenario& s, const RunOptions& o) {
       run_kinematic(s, o, world, renderer, summary);
     } else {
       const LoopResult r = run_closed_loop(s, o, world, renderer, summary);
-      Json perf = Json::object();
+      Json perf;
       perf["sim_seconds"] = r.sim_s;
       perf["wall_seconds"] = r.wall_s;
       perf["realtime_factor"] = r.wall_s > 0 ? r.sim_s / r.wall_s : 0.0;
-      Json per = Json::object();
       const double n = std::max(1, r.frames);
-      per["render"] = r.render_ms / n;
-      per["estimator"] = r.estimator_ms / n;
-      per["control"] = r.control_ms / n;
-      per["physics"] = r.physics_ms / n;
-      perf["ms_per_camera_frame"] = per;
+      perf["ms_per_camera_frame"] = {{"render", r.render_ms / n},
+                                     {"estimator", r.estimator_ms / n},
+                                     {"control", r.control_ms / n},
+                                     {"physics", r.physics_ms / n}};
       // Timings differ run to run: they go beside summary.json, which stays deterministic.
-      write_text_file(o.out_dir + "/performance.json", perf.dump());
+      write_json_file(o.out_dir + "/performance.json", perf);
     }
   } catch (const std::exception& e) {
     summary["landed"] = false;
     summary["outcome"] = "error";
     summary["outcome_detail"] = e.what();
-    write_text_file(o.out_dir + "/summary.json", summary.dump());
+    write_json_file(o.out_dir + "/summary.json", summary);
     throw;
   }
-  write_text_file(o.out_dir + "/summary.json", summary.dump());
+  write_json_file(o.out_dir + "/summary.json", summary);
   return summary;
 }
 

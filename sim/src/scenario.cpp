@@ -5,33 +5,41 @@
 namespace lander::sim {
 
 void VehicleSetup::validate() const {
-  require(control == "closed_loop" || control == "kinematic", "vehicle.control",
+  require(control == "closed_loop" || control == "kinematic", "control",
           "must be closed_loop or kinematic (got '" + control + "')");
   if (control == "kinematic") {
-    require(!waypoints.empty(), "vehicle.waypoints", "a kinematic vehicle needs waypoints");
+    require(!waypoints.empty(), "waypoints", "a kinematic vehicle needs waypoints");
   }
-  for (std::size_t i = 1; i < waypoints.size(); ++i) {
-    require(waypoints[i].t_s > waypoints[i - 1].t_s,
-            "vehicle.waypoints[" + std::to_string(i) + "].t_s", "times must increase");
+  for (std::size_t i = 0; i < waypoints.size(); ++i) {
+    validate_item("waypoints", i, waypoints[i]);
+    require(i == 0 || waypoints[i].t_s > waypoints[i - 1].t_s,
+            "waypoints[" + std::to_string(i) + "].t_s", "times must increase");
   }
-  require(start_p_W_m.z() > 0.3, "vehicle.start_m", "start height must be > 0.3 m");
-  model.validate();
+  require(start_p_W_m.z() > 0.3, "start_m", "start height must be > 0.3 m");
+  validate_nested("model", model);
 }
 
 void Scenario::validate() const {
   require(duration_s > 0 && duration_s <= 3600, "duration_s", "must be in (0, 3600] s");
-  world.validate();
-  camera.validate();
-  render.validate();
-  cart.validate();
-  vehicle.validate();
-  sensors.validate();
-  wind.validate();
-  estimator.validate();
-  controller.validate();
-  faults.validate();
-  video.validate();
+  validate_nested("world", world);
+  validate_nested("camera", camera);
+  validate_nested("render", render);
+  validate_nested("cart", cart);
+  validate_nested("vehicle", vehicle);
+  validate_nested("sensors", sensors);
+  validate_nested("wind", wind);
+  validate_nested("estimator", estimator);
+  validate_nested("controller", controller);
+  validate_nested("faults", faults);
+  validate_nested("video", video);
   require(trace_rate_hz > 0 && trace_rate_hz <= 1000, "trace_rate_hz", "must be in (0, 1000]");
+  // camera.mp4 is the camera image divided by video.camera_scale_div, rounded down to even
+  // sizes for H.264; too small a frame makes ffmpeg fail at run time.
+  const int video_w = camera.intrinsics.width_px / video.camera_scale_div / 2 * 2;
+  const int video_h = camera.intrinsics.height_px / video.camera_scale_div / 2 * 2;
+  require(video_w >= kMinVideoSidePx && video_h >= kMinVideoSidePx, "video.camera_scale_div",
+          "camera.mp4 would be " + std::to_string(video_w) + "x" + std::to_string(video_h) +
+              " px; both sides must be >= " + std::to_string(kMinVideoSidePx) + " px");
 }
 
 Scenario Scenario::defaults() {

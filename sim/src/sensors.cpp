@@ -8,16 +8,6 @@
 namespace lander::sim {
 
 namespace {
-// Re-throws a sub-struct's ConfigError with the sensor's name in front.
-template <class P>
-void validate_named(const P& p, const char* name) {
-  try {
-    p.validate();
-  } catch (const ConfigError& e) {
-    throw ConfigError(std::string(name) + ": " + e.what());
-  }
-}
-
 // Seconds since the previous sample (0 for the first one), for random walks.
 double since(double& last_t_s, double t_s) {
   const double dt = last_t_s < 0 ? 0.0 : std::max(0.0, t_s - last_t_s);
@@ -27,11 +17,11 @@ double since(double& last_t_s, double t_s) {
 }  // namespace
 
 void SensorSuiteParams::validate() const {
-  validate_named(imu, "imu");
-  validate_named(baro, "baro");
-  validate_named(gps, "gps");
-  validate_named(ultrasonic, "ultrasonic");
-  validate_named(magnetometer, "magnetometer");
+  validate_nested("imu", imu);
+  validate_nested("baro", baro);
+  validate_nested("gps", gps);
+  validate_nested("ultrasonic", ultrasonic);
+  validate_nested("magnetometer", magnetometer);
 }
 
 // ---------------------------------------------------------------------------------- IMU

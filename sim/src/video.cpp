@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include <fmt/format.h>
+
 namespace lander::sim {
 
 VideoWriter::VideoWriter(const std::string& path, int width, int height, double fps)
@@ -17,8 +19,7 @@ VideoWriter::VideoWriter(const std::string& path, int width, int height, double 
   }
   // ffmpeg picks the container from the name: keep ".mp4" last in the temporary name.
   tmp_path_ = path + ".partial.mp4";
-  char rate[32];
-  std::snprintf(rate, sizeof(rate), "%.6g", fps);
+  const std::string rate = fmt::format("{:.6g}", fps);
   const std::vector<std::string> argv = {
       "ffmpeg", "-nostdin", "-loglevel", "error", "-y", "-f", "rawvideo", "-pix_fmt", "bgr24",
       "-s", std::to_string(width) + "x" + std::to_string(height), "-r", rate, "-i", "pipe:0",
@@ -33,11 +34,11 @@ VideoWriter::VideoWriter(const std::string& path, int width, int height, double 
 }
 
 VideoWriter::~VideoWriter() {
-  try {
-    close();
-  } catch (...) {
-    // Destructors must not throw; close() explicitly to see errors.
-  }
+  if (!ffmpeg_) return;
+  // Not closed: the run stopped on an error. Discard the partial file (the child is killed
+  // and reaped by ChildProcess's destructor), as for every other output file.
+  ffmpeg_.reset();
+  std::remove(tmp_path_.c_str());
 }
 
 void VideoWriter::write(const cv::Mat& bgr) {

@@ -67,8 +67,13 @@ World::World(const WorldParams& params, const CameraModel& camera) : camera_(cam
   // Off-centre principal points and distortion are applied after rendering (camera.cpp).
   m_->cam_fovy[camera_id_] =
       2.0 * std::atan(0.5 * camera_.height_px / camera_.fy_px) * 180.0 / M_PI;
-  m_->vis.global.offwidth = std::max(m_->vis.global.offwidth, camera_.width_px);
-  m_->vis.global.offheight = std::max(m_->vis.global.offheight, camera_.height_px);
+  reserve_offscreen(camera_.width_px, camera_.height_px);
+  if (m_->vis.global.offwidth > kMaxRenderSidePx || m_->vis.global.offheight > kMaxRenderSidePx) {
+    throw ConfigError(params.model_path + ": <visual><global offwidth/offheight> " +
+                      std::to_string(m_->vis.global.offwidth) + "x" +
+                      std::to_string(m_->vis.global.offheight) + " exceeds the offscreen limit " +
+                      std::to_string(kMaxRenderSidePx) + " px");
+  }
 
   set_texture("target_tex", render_target_texture(target_));
   const int ground_tex = mj_name2id(m_, mjOBJ_TEXTURE, "ground_tex");
@@ -76,6 +81,16 @@ World::World(const WorldParams& params, const CameraModel& camera) : camera_(cam
     set_texture("ground_tex", make_ground_texture(m_->tex_width[ground_tex], params.ground_seed));
   }
   mj_forward(m_, d_);
+}
+
+void World::reserve_offscreen(int width_px, int height_px) {
+  if (width_px > kMaxRenderSidePx || height_px > kMaxRenderSidePx) {
+    throw ConfigError("render size " + std::to_string(width_px) + "x" +
+                      std::to_string(height_px) + " exceeds the offscreen limit " +
+                      std::to_string(kMaxRenderSidePx) + " px");
+  }
+  m_->vis.global.offwidth = std::max(m_->vis.global.offwidth, width_px);
+  m_->vis.global.offheight = std::max(m_->vis.global.offheight, height_px);
 }
 
 World::~World() {
@@ -159,6 +174,16 @@ Eigen::Vector3d World::cart_qd() const {
 }
 
 void World::forward() { mj_forward(m_, d_); }
+
+bool World::state_finite() const {
+  for (int i = 0; i < m_->nq; ++i) {
+    if (!std::isfinite(d_->qpos[i])) return false;
+  }
+  for (int i = 0; i < m_->nv; ++i) {
+    if (!std::isfinite(d_->qvel[i])) return false;
+  }
+  return true;
+}
 
 double World::ray_distance(const Eigen::Vector3d& p_W, const Eigen::Vector3d& dir_W) const {
   mjtNum pnt[3] = {p_W.x(), p_W.y(), p_W.z()};

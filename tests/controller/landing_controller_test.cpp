@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 
 namespace lander::ctl {
 namespace {
@@ -73,6 +74,57 @@ TEST(PlatformTracker, UsesTheNavigationStateAtTheFrameTimeNotTheLatest) {
   EXPECT_NEAR((tracker.latest().p_W_m - X_WP.translation()).norm(), 0.0, 1e-9);
   // Using the latest nav state (0.4 s) instead would have been 0.3 m off.
   EXPECT_GT((nav_at(0.4).p_W_m - nav_at(t_frame).p_W_m).norm(), 0.29);
+}
+
+// The tracker used to accept a non-finite pose (and then every fit and prediction was NaN).
+TEST(PlatformTracker, NonFinitePoseIsRejectedAndCounted) {
+  PlatformTracker tracker(TrackerParams{}, CameraMount{});
+  NavState n;
+  n.valid = true;
+  n.p_W_m = Eigen::Vector3d(0, 0, 5);
+  for (int i = 0; i <= 10; ++i) {
+    n.t_s = i * 0.004;
+    tracker.add_nav(n);
+  }
+  PlatformObservation obs;
+  obs.t_s = 0.02;
+  obs.detected = obs.keyframe = true;
+  obs.X_CP.translation() = Eigen::Vector3d(0, 0, std::nan(""));
+  EXPECT_FALSE(tracker.add_observation(obs));
+  obs.X_CP.translation().z() = 4.0;
+  obs.cov(0, 0) = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(tracker.add_observation(obs));
+  EXPECT_EQ(tracker.rejected_observations(), 2);
+  EXPECT_FALSE(tracker.has_fix());
+  obs.cov.setIdentity();
+  EXPECT_TRUE(tracker.add_observation(obs));
+  EXPECT_TRUE(tracker.latest().p_W_m.allFinite());
+}
+
+TEST(LandingController, NonFiniteInputsAreDroppedAndTheLastCommandHeld) {
+  LandingController ctl(ControllerParams{}, CameraMount{});
+  NavState nav;
+  nav.valid = true;
+  nav.p_W_m = Eigen::Vector3d(1, 2, 10);
+  ImuSample imu;
+  const RotorCommand good = ctl.step(0.0, nav, imu);
+  PlatformObservation obs;
+  obs.t_s = 0.0;
+  obs.detected = obs.keyframe = true;
+  obs.X_CP.translation().setConstant(std::nan(""));
+  ctl.on_vision(obs);
+  AltitudeEstimate alt;
+  alt.valid = true;
+  alt.z_W_m = std::nan("");
+  ctl.on_altitude(alt);
+  ImuSample bad = imu;
+  bad.accel_B_mps2.z() = std::nan("");
+  const RotorCommand held = ctl.step(0.004, nav, bad);
+  EXPECT_EQ(held.w_radps, good.w_radps);
+  EXPECT_EQ(ctl.rejected_inputs(), 3);
+  const RotorCommand next = ctl.step(0.008, nav, imu);
+  for (double w : next.w_radps) EXPECT_TRUE(std::isfinite(w));
+  EXPECT_FALSE(ctl.tracker().has_fix());
 }
 
 TEST(PlatformTracker, SteadinessRejectsATiltingPlatform) {

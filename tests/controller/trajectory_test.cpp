@@ -146,6 +146,7 @@ TEST(PlatformTracker, NonKeyframesAndMissesDoNotMakeFixes) {
   blurred.t_s = 0.1;
   blurred.detected = true;
   blurred.keyframe = false;
+  blurred.X_CP.translation() = Eigen::Vector3d(0, 0, 4.2);  // a pose in front of the camera
   EXPECT_FALSE(s.tracker.add_observation(blurred));
   EXPECT_EQ(s.tracker.num_fixes(), 1);
   EXPECT_DOUBLE_EQ(s.tracker.last_detection_t(), 0.1);  // still "in view"

@@ -8,6 +8,7 @@
 #include <Eigen/Eigenvalues>
 #include <opencv2/imgproc.hpp>
 
+#include "common/json_checks.h"
 #include "estimator/support/vision_synth.h"
 #include "lander/estimator/vision_detector.h"
 
@@ -296,12 +297,12 @@ TEST(VisionDetector, ObservationAndJson) {
   EXPECT_TRUE(o.keyframe);
   EXPECT_EQ(o.rings_identified, static_cast<int>(d.centres.size()));
   EXPECT_TRUE(o.X_CP.isApprox(d.X_CP));
-  const std::string j = to_json(d);
-  EXPECT_NE(j.find("\"detected\": true"), std::string::npos);
-  EXPECT_NE(j.find("\"p_CP_m\""), std::string::npos);
-  EXPECT_NE(j.find("\"centres\""), std::string::npos);
-  EXPECT_EQ(j.front(), '{');
-  EXPECT_EQ(j.back(), '}');
+  const nlohmann::json j = test::parse_json(to_json(d));
+  EXPECT_TRUE(test::bool_at(j, "detected"));
+  ASSERT_EQ(test::at_path(j, "p_CP_m").size(), 3u);
+  for (int i = 0; i < 3; ++i) EXPECT_DOUBLE_EQ(j["p_CP_m"][i].get<double>(), d.X_CP.translation()[i]);
+  EXPECT_EQ(test::at_path(j, "centres").size(), d.centres.size());
+  EXPECT_EQ(test::at_path(j, "cov_rot_trans").size(), 6u);
   EXPECT_GT(d.time_ms, 0.0);
   // The same frame as 8-bit grey, 16-bit BGR and BGRA gives the same pose.
   const cv::Mat bgr = test::render_view(g, kCam, X);

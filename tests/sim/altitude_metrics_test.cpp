@@ -2,10 +2,11 @@
 #include "lander/sim/altitude_metrics.h"
 
 #include <gtest/gtest.h>
-#include <yaml-cpp/yaml.h>
 
 #include <cmath>
 #include <limits>
+
+#include "common/json_checks.h"
 
 namespace lander::sim {
 namespace {
@@ -24,8 +25,13 @@ TEST(AltitudeMetrics, RmseAndMaxPerBand) {
   EXPECT_NEAR(m.stats("baro", AltitudeBand::kBelow3m).max_abs_m, 0.1, 1e-15);
   EXPECT_EQ(m.stats("gps", AltitudeBand::kAll).n, 0u);
   EXPECT_TRUE(std::isnan(m.stats("gps", AltitudeBand::kAll).rmse_m()));
-  EXPECT_THROW(m.add("baro", std::numeric_limits<double>::quiet_NaN(), 1.0),
-               std::invalid_argument);
+  // A NaN from the flight side is counted and enters no figure (it must not abort a run).
+  EXPECT_NO_THROW(m.add("baro", std::numeric_limits<double>::quiet_NaN(), 1.0));
+  EXPECT_NO_THROW(m.add("baro", 0.2, std::numeric_limits<double>::infinity()));
+  EXPECT_EQ(m.stats("baro", AltitudeBand::kAll).non_finite, 1u);
+  EXPECT_EQ(m.stats("baro", AltitudeBand::kAll).n, 4u);  // the finite error, without a band
+  EXPECT_EQ(m.stats("baro", AltitudeBand::kBelow3m).n, 1u);
+  EXPECT_NEAR(m.stats("baro", AltitudeBand::kAll).max_abs_m, 0.4, 1e-15);
 }
 
 TEST(AltitudeMetrics, JsonHasTheIssueKeys) {
@@ -33,21 +39,19 @@ TEST(AltitudeMetrics, JsonHasTheIssueKeys) {
   m.add("fused", 0.01, 5.0);
   m.add("fused", -0.02, 5.0);
   m.add("ultrasonic", 0.003, 1.0);
-  const std::string json = m.to_json();
-  // JSON is a subset of YAML 1.2 flow style: parse it back with yaml-cpp.
-  const YAML::Node n = YAML::Load(json);
-  ASSERT_TRUE(n.IsMap());
+  // Written and parsed back as a file would be.
+  const nlohmann::json n = test::parse_json(m.json().dump());
+  ASSERT_TRUE(n.is_object());
   EXPECT_EQ(m.sensors(), (std::vector<std::string>{"fused", "ultrasonic"}));
   for (const char* band : {"all", "above_3m", "below_3m"}) {
-    ASSERT_TRUE(n["fused"][band]) << band;
-    ASSERT_TRUE(n["fused"][band]["rmse_m"]) << band;
-    ASSERT_TRUE(n["fused"][band]["max_m"]) << band;
+    EXPECT_NO_THROW(test::at_path(n, std::string("fused.") + band + ".rmse_m")) << band;
+    EXPECT_NO_THROW(test::at_path(n, std::string("fused.") + band + ".max_m")) << band;
   }
-  EXPECT_NEAR(n["fused"]["above_3m"]["rmse_m"].as<double>(), std::sqrt(0.00025), 1e-6);
-  EXPECT_NEAR(n["fused"]["all"]["max_m"].as<double>(), 0.02, 1e-9);
-  EXPECT_EQ(n["fused"]["below_3m"]["n"].as<int>(), 0);
-  EXPECT_TRUE(n["fused"]["below_3m"]["rmse_m"].IsNull());  // empty band: null
-  EXPECT_NEAR(n["ultrasonic"]["below_3m"]["rmse_m"].as<double>(), 0.003, 1e-9);
+  EXPECT_NEAR(test::number_at(n, "fused.above_3m.rmse_m"), std::sqrt(0.00025), 1e-12);
+  EXPECT_NEAR(test::number_at(n, "fused.all.max_m"), 0.02, 1e-15);
+  EXPECT_EQ(test::number_at(n, "fused.below_3m.n"), 0);
+  EXPECT_TRUE(test::at_path(n, "fused.below_3m.rmse_m").is_null());  // empty band: null
+  EXPECT_NEAR(test::number_at(n, "ultrasonic.below_3m.rmse_m"), 0.003, 1e-15);
 }
 
 }  // namespace

@@ -392,7 +392,7 @@ TEST(FusionAltitude, DescentOntoPlatformBeatsSingleSensors) {
   f.init_z_m = 10.0;
   f.init_surface_m = 0.0;
   const Result r = fly(f);
-  std::cout << r.metrics.to_json() << "\n";
+  std::cout << r.metrics.json().dump() << "\n";
   const auto fused_low = r.metrics.stats("fused", AltitudeBand::kBelow3m);
   const auto fused_high = r.metrics.stats("fused", AltitudeBand::kAbove3m);
   ASSERT_GT(fused_low.n, 100u);

@@ -3,8 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <dirent.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <set>
 
 #include "lander/sim/cart_motion.h"
 #include "lander/sim/scenario.h"
@@ -64,6 +68,225 @@ TEST(Scenario, UnknownNestedKeyNamesFileLineAndPath) {
     EXPECT_NE(m.find("x.yaml:4"), std::string::npos) << m;
     EXPECT_NE(m.find("sensors.gps.rate"), std::string::npos) << m;
   }
+}
+
+// ---------------------------------------------------------------- configuration errors
+
+// The ConfigError of loading `yaml` (file name x.yaml) on top of the defaults; fails the test
+// when it loads.
+std::string load_error(const std::string& yaml) {
+  Scenario s = Scenario::defaults();
+  try {
+    read_params(YAML::Load(yaml), "x.yaml", s);
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "no ConfigError for:\n" << yaml;
+  return "";
+}
+
+// A scenario file `text` written to a temporary file; its path.
+std::string temp_yaml(const std::string& text) {
+  char name[] = "/tmp/lander_scenario_XXXXXX";
+  const int fd = mkstemp(name);
+  EXPECT_GE(fd, 0);
+  if (fd >= 0) close(fd);
+  std::ofstream(name) << text;
+  return name;
+}
+
+struct BadValue {
+  const char* yaml;
+  const char* where;  ///< "x.yaml:<line>" expected in the message
+  const char* key;    ///< full dotted path expected in the message
+};
+
+// One bad value per params struct of the scenario: each message names the file, the line of
+// the key and its full dotted path as written in YAML (not the struct's own short name).
+TEST(ScenarioConfigErrors, ValidationErrorsNameFileLineAndDottedPath) {
+  const BadValue cases[] = {
+      {"seed: 1\nduration_s: -4\n", "x.yaml:2", "'duration_s'"},
+      {"trace_rate_hz: 0\n", "x.yaml:1", "'trace_rate_hz'"},
+      {"name: a\nworld:\n  dt_ms: 9\n", "x.yaml:3", "'world.dt_ms'"},
+      {"camera:\n  rate_hz: 1000\n", "x.yaml:2", "'camera.rate_hz'"},
+      {"camera:\n  intrinsics:\n    fx_px: -1\n", "x.yaml:3", "'camera.intrinsics.fx_px'"},
+      {"camera:\n  intrinsics:\n    width_px: 100000\n", "x.yaml:3",
+       "'camera.intrinsics.width_px'"},
+      {"render:\n  backend: vulkan\n", "x.yaml:2", "'render.backend'"},
+      {"render: {msaa_samples: 99}\n", "x.yaml:1", "'render.msaa_samples'"},
+      {"cart:\n  path: zigzag\n", "x.yaml:2", "'cart.path'"},
+      {"cart:\n  stop_s: -1\n", "x.yaml:2", "'cart.stop_s'"},
+      {"vehicle:\n  start_m: [0, 0, 0.1]\n", "x.yaml:2", "'vehicle.start_m'"},
+      {"vehicle:\n  model:\n    rotor:\n      tau_s: -1\n", "x.yaml:4",
+       "'vehicle.model.rotor.tau_s'"},
+      {"vehicle:\n  model:\n    ground_effect:\n      z_min_over_R: 0.1\n", "x.yaml:4",
+       "'vehicle.model.ground_effect.z_min_over_R'"},
+      // Set in the file: z_min_over_R; invalid: the default z_max_over_R, at its parent's line.
+      {"vehicle:\n  model:\n    ground_effect:\n      z_min_over_R: 9\n", "x.yaml:3",
+       "'vehicle.model.ground_effect.z_max_over_R' (not set in this file: default value)"},
+      {"vehicle:\n  control: kinematic\n  waypoints:\n    - {t_s: 2}\n    - {t_s: 1}\n",
+       "x.yaml:5", "'vehicle.waypoints[1].t_s'"},
+      {"sensors:\n  imu:\n    latency_ms: -1\n", "x.yaml:3", "'sensors.imu.latency_ms'"},
+      {"sensors:\n  baro:\n    latency_ms: -1\n", "x.yaml:3", "'sensors.baro.latency_ms'"},
+      {"sensors:\n  gps:\n    latency_ms: -1\n", "x.yaml:3", "'sensors.gps.latency_ms'"},
+      {"sensors:\n  ultrasonic:\n    latency_ms: -1\n", "x.yaml:3",
+       "'sensors.ultrasonic.latency_ms'"},
+      {"sensors:\n  magnetometer:\n    latency_ms: -1\n", "x.yaml:3",
+       "'sensors.magnetometer.latency_ms'"},
+      {"wind:\n  gust_tau_s: 0\n", "x.yaml:2", "'wind.gust_tau_s'"},
+      {"estimator:\n  vision_latency_ms: 5000\n", "x.yaml:2", "'estimator.vision_latency_ms'"},
+      {"estimator:\n  altitude:\n    baro_std_m: 0\n", "x.yaml:3",
+       "'estimator.altitude.baro_std_m'"},
+      {"estimator:\n  navigation:\n    accel_gate_frac: 2\n", "x.yaml:3",
+       "'estimator.navigation.accel_gate_frac'"},
+      {"estimator:\n  sample_limits:\n    max_gyro_radps: 0\n", "x.yaml:3",
+       "'estimator.sample_limits.max_gyro_radps'"},
+      {"controller:\n  tracker:\n    poly_order: 9\n", "x.yaml:3",
+       "'controller.tracker.poly_order'"},
+      {"controller:\n  landing:\n    observe_frames: 0\n", "x.yaml:3",
+       "'controller.landing.observe_frames'"},
+      {"controller:\n  vehicle:\n    mass_kg: -1\n", "x.yaml:3", "'controller.vehicle.mass_kg'"},
+      {"controller:\n  cascade:\n    pos_kp_xy: 0\n", "x.yaml:3",
+       "'controller.cascade.pos_kp_xy'"},
+      {"faults:\n  nan_imu_duration_s: -1\n", "x.yaml:2", "'faults.nan_imu_duration_s'"},
+      {"video:\n  chase_width_px: 5000\n", "x.yaml:2", "'video.chase_width_px'"},
+  };
+  for (const BadValue& c : cases) {
+    const std::string m = load_error(c.yaml);
+    EXPECT_NE(m.find(std::string(c.where) + ": "), std::string::npos) << c.yaml << " -> " << m;
+    EXPECT_NE(m.find(c.key), std::string::npos) << c.yaml << " -> " << m;
+  }
+}
+
+// A key left at its default can still be invalid together with one that was set: the message
+// names the default key's full path and the line of its nearest parent in the file.
+TEST(ScenarioConfigErrors, DefaultKeyIsLocatedAtItsNearestParent) {
+  // 200 Hz leaves 5 ms a frame; the default exposure (2 ms) fits, 8 ms does not.
+  const std::string m = load_error("seed: 2\ncamera:\n  exposure_ms: 8\n  rate_hz: 200\n");
+  EXPECT_NE(m.find("x.yaml:3: invalid value for 'camera.exposure_ms'"), std::string::npos) << m;
+  // Only rate_hz in the file: exposure_ms keeps its default, located at "camera".
+  const std::string d = load_error("seed: 2\ncamera:\n  rate_hz: 1000\n");
+  EXPECT_NE(d.find("'camera.rate_hz'"), std::string::npos) << d;
+  const std::string v = load_error("seed: 2\nvideo:\n  camera_scale_div: 8\ncamera:\n"
+                                   "  intrinsics: {width_px: 100, height_px: 100}\n");
+  EXPECT_NE(v.find("x.yaml:3: invalid value for 'video.camera_scale_div'"), std::string::npos)
+      << v;
+}
+
+// Collects the dotted path of every key of a params struct (numeric ones apart).
+struct Collector {
+  std::string prefix;
+  std::vector<std::string>* numeric;
+  std::set<std::string>* all;
+  void add(const char* k, bool is_numeric) {
+    all->insert(prefix + k);
+    if (is_numeric) numeric->push_back(prefix + k);
+  }
+  void operator()(const char* k, double&, double = 1.0) { add(k, true); }
+  void operator()(const char* k, int&) { add(k, true); }
+  void operator()(const char* k, std::uint64_t&) { add(k, true); }
+  void operator()(const char* k, bool&) { add(k, false); }
+  void operator()(const char* k, std::string&) { add(k, false); }
+  void operator()(const char* k, std::vector<double>&, double = 1.0) { add(k, false); }
+  void operator()(const char* k, Eigen::Vector2d&, double = 1.0) { add(k, false); }
+  void operator()(const char* k, Eigen::Vector3d&, double = 1.0) { add(k, false); }
+  template <class P>
+  void nested(const char* k, P& sub) {
+    all->insert(prefix + k);
+    Collector c{prefix + k + ".", numeric, all};
+    visit_fields(c, sub);
+  }
+  template <class P>
+  void list(const char* k, std::vector<P>&) {
+    all->insert(prefix + k);
+  }
+};
+
+// Every error validate() raises names a key that exists, by its full dotted path: each
+// numeric key of the scenario is set in turn to extreme values, and any keyed ConfigError
+// must name a real key (so a typo or a short name in a require() fails here), with a line.
+TEST(ScenarioConfigErrors, EveryValidationErrorNamesARealKey) {
+  std::vector<std::string> numeric;
+  std::set<std::string> all;
+  Scenario defaults = Scenario::defaults();
+  Collector c{"", &numeric, &all};
+  visit_fields(c, defaults);
+  ASSERT_GT(numeric.size(), 200u);
+  int errors = 0;
+  for (const std::string& path : numeric) {
+    for (const char* value : {"-1000000000", "-1", "0", "1000000000"}) {
+      // path a.b.c -> "a:\n  b:\n    c: value\n"
+      std::string yaml, indent;
+      std::size_t start = 0, dot;
+      while ((dot = path.find('.', start)) != std::string::npos) {
+        yaml += indent + path.substr(start, dot - start) + ":\n";
+        indent += "  ";
+        start = dot + 1;
+      }
+      yaml += indent + path.substr(start) + ": " + value + "\n";
+      Scenario s = Scenario::defaults();
+      try {
+        read_params(YAML::Load(yaml), "x.yaml", s);
+      } catch (const ConfigError& e) {
+        ++errors;
+        const std::string m = e.what();
+        if (e.key().empty()) continue;  // a parse error (e.g. a negative seed): no key
+        EXPECT_TRUE(all.count(e.key())) << "unknown key '" << e.key() << "' for " << path
+                                        << " = " << value << ": " << m;
+        EXPECT_EQ(m.rfind("x.yaml:", 0), 0u) << m;
+      }
+    }
+  }
+  EXPECT_GT(errors, 200);  // the sweep did reach the checks
+}
+
+TEST(ScenarioConfigErrors, DuplicateKeysAreRejectedWithTheirLine) {
+  const std::string top = load_error("seed: 1\nname: a\nseed: 2\n");
+  EXPECT_NE(top.find("x.yaml:3"), std::string::npos) << top;
+  EXPECT_NE(top.find("duplicate key 'seed'"), std::string::npos) << top;
+  EXPECT_NE(top.find("line 1"), std::string::npos) << top;
+  const std::string nested = load_error("camera:\n  rate_hz: 30\n  rate_hz: 60\n");
+  EXPECT_NE(nested.find("x.yaml:3"), std::string::npos) << nested;
+  EXPECT_NE(nested.find("'camera.rate_hz'"), std::string::npos) << nested;
+  const std::string flow = load_error("cart: {path: arc, path: static}\n");
+  EXPECT_NE(flow.find("'cart.path'"), std::string::npos) << flow;
+}
+
+TEST(ScenarioConfigErrors, NonScalarKeysAndNonFiniteListsAreRejected) {
+  const std::string k = load_error("? [a, b]\n: 1\n");
+  EXPECT_NE(k.find("x.yaml:1"), std::string::npos) << k;
+  const std::string v = load_error("vehicle:\n  start_m: [0, .nan, 10]\n");
+  EXPECT_NE(v.find("x.yaml:2"), std::string::npos) << v;
+  EXPECT_NE(v.find("'vehicle.start_m'"), std::string::npos) << v;
+}
+
+TEST(ScenarioConfigErrors, EmptyFilesAreErrors) {
+  for (const char* text : {"", "# only a comment\n\n# and another\n", "---\n", "~\n"}) {
+    const std::string path = temp_yaml(text);
+    try {
+      Scenario::load(path);
+      ADD_FAILURE() << "empty file accepted: '" << text << "'";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(path + ":1"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("empty"), std::string::npos) << e.what();
+    }
+    std::remove(path.c_str());
+  }
+  // An explicitly empty mapping is a scenario that changes nothing.
+  const std::string path = temp_yaml("{}\n");
+  EXPECT_NO_THROW(Scenario::load(path));
+  std::remove(path.c_str());
+}
+
+TEST(ScenarioConfigErrors, SecondDocumentIsAnError) {
+  const std::string path = temp_yaml("seed: 1\n---\nseed: 2\n");
+  try {
+    Scenario::load(path);
+    ADD_FAILURE() << "second document accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(path + ":3"), std::string::npos) << e.what();
+  }
+  std::remove(path.c_str());
 }
 
 TEST(Scenario, DerivedSeedsDifferPerStreamAndRepeat) {

@@ -89,8 +89,9 @@ TEST(SensorParams, BadValueNamesField) {
   expect_bad_value_named<BaroParams>("downwash_decay_m: 0", "downwash_decay_m");
   expect_bad_value_named<GpsParams>("rate_hz: 0", "rate_hz");
   expect_bad_value_named<UltrasonicParams>("max_range_m: 0.1", "max_range_m");
+  // A nested struct's key is named by its full dotted path, at its line.
   expect_bad_value_named<SensorSuiteParams>("gps: {correlation_time_s: 0}",
-                                            "gps: invalid value for 'correlation_time_s'");
+                                            "s.yaml:1: invalid value for 'gps.correlation_time_s'");
 }
 
 TEST(SensorParams, DefaultYamlFileMatchesDefaults) {

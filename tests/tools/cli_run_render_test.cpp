@@ -2,10 +2,10 @@
 // loads back to the same scenario, and the same seed gives the same files.
 #include <gtest/gtest.h>
 
-#include <nlohmann/json.hpp>
-
 #include <fstream>
 
+#include "common/json_checks.h"
+#include "lander/sim/run.h"
 #include "lander/sim/scenario.h"
 #include "tools/support/cli.h"
 
@@ -32,9 +32,10 @@ TEST(CliRun, ShortScriptedFlightWritesItsOutputsDeterministically) {
     EXPECT_FALSE(a.empty()) << f;
     EXPECT_EQ(a, slurp(dir + "/b/" + f)) << f;
   }
-  const std::string summary = slurp(dir + "/a/summary.json");
-  EXPECT_NE(summary.find("\"schema_version\": 1"), std::string::npos) << summary;
-  EXPECT_NE(summary.find("\"frames\": 45"), std::string::npos) << summary;  // 1.5 s at 30 fps
+  const nlohmann::json summary = lander::test::read_json_file(dir + "/a/summary.json");
+  EXPECT_EQ(lander::test::number_at(summary, "schema_version"), lander::sim::kSummarySchemaVersion);
+  EXPECT_EQ(lander::test::string_at(summary, "outcome"), "scripted_flight_complete");
+  EXPECT_EQ(lander::test::number_at(summary, "vision.frames"), 45);  // 1.5 s at 30 fps
   // The resolved scenario is a complete scenario: it loads, and saves to the same text.
   const lander::sim::Scenario resolved = lander::sim::Scenario::load(dir + "/a/scenario.resolved.yaml");
   EXPECT_EQ(lander::yaml_to_string(lander::params_to_yaml(resolved)),
@@ -63,9 +64,9 @@ TEST(CliRun, ClosedLoopWithVideoWritesBothVideosAndASummary) {
   std::ofstream(dir + "/s.yaml") << text;
   // One simulated second cannot land: exit code 1 (did not land), outputs complete.
   EXPECT_EQ(run_lander("run " + dir + "/s.yaml --out " + dir + "/v --video --quiet"), 1);
-  const std::string summary = slurp(dir + "/v/summary.json");
-  EXPECT_NE(summary.find("\"outcome\": \"timeout\""), std::string::npos) << summary;
-  EXPECT_NE(summary.find("\"frames\": 30"), std::string::npos) << summary;
+  const nlohmann::json summary = lander::test::read_json_file(dir + "/v/summary.json");
+  EXPECT_EQ(lander::test::string_at(summary, "outcome"), "timeout");
+  EXPECT_EQ(lander::test::number_at(summary, "vision.frames"), 30);
   for (const char* f : {"camera.mp4", "chase.mp4"}) {
     EXPECT_GT(slurp(dir + "/v/" + f).size(), 10000u) << f;  // 30 frames of H.264, not a header
   }
@@ -87,10 +88,10 @@ TEST(CliBatch, TwoSeedsGiveOneRunEachAndTheStatistics) {
   const auto r = lander::test::run_lander("batch " + dir + "/s.yaml --seeds 2 --first-seed 40 --out " +
                                           dir + "/mc");
   ASSERT_EQ(r.code, 0) << r.output;  // both runs ended (timeout: 1 s is too short to land)
-  const nlohmann::json j = nlohmann::json::parse(slurp(dir + "/mc/campaign.json"));
-  EXPECT_EQ(j.at("overall").at("runs").get<int>(), 2);
-  EXPECT_EQ(j.at("overall").at("landed").get<int>(), 0);
-  EXPECT_EQ(j.at("overall").at("outcomes").at("timeout").get<int>(), 2);
+  const nlohmann::json j = lander::test::read_json_file(dir + "/mc/campaign.json");
+  EXPECT_EQ(lander::test::number_at(j, "overall.runs"), 2);
+  EXPECT_EQ(lander::test::number_at(j, "overall.landed"), 0);
+  EXPECT_EQ(lander::test::number_at(j, "overall.outcomes.timeout"), 2);
   const std::string csv = slurp(dir + "/mc/campaign.csv");
   EXPECT_NE(csv.find("\ns-0000,s,40,timeout,0,"), std::string::npos) << csv;
   EXPECT_NE(csv.find("\ns-0001,s,41,timeout,0,"), std::string::npos) << csv;

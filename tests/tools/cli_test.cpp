@@ -69,6 +69,42 @@ TEST(Cli, BadValueNamesTheKey) {
   EXPECT_FALSE(exists(dir + "/out"));
 }
 
+// Bad input exits 2 before anything is written, with file:line and the full dotted key path.
+void expect_bad_scenario(const std::string& text, const std::string& where_suffix,
+                         const std::string& needle) {
+  const std::string dir = temp_dir();
+  const std::string yaml = write_file(dir, "s.yaml", text);
+  const auto r = run_lander("run " + yaml + " --out " + dir + "/out");
+  EXPECT_EQ(r.code, 2) << text << "\n" << r.output;
+  EXPECT_NE(r.output.find(yaml + where_suffix), std::string::npos) << text << "\n" << r.output;
+  EXPECT_NE(r.output.find(needle), std::string::npos) << text << "\n" << r.output;
+  EXPECT_FALSE(exists(dir + "/out")) << text;
+}
+
+TEST(Cli, ImageTooLargeForTheOffscreenBufferIsBadInput) {
+  // Used to fail at run time with a MuJoCo framebuffer error and exit 1.
+  expect_bad_scenario("name: big\ncamera:\n  intrinsics:\n    width_px: 100000\n", ":4: ",
+                      "'camera.intrinsics.width_px'");
+}
+
+TEST(Cli, ValueErrorsNameTheFullDottedPath) {
+  expect_bad_scenario("world:\n  dt_ms: 9\n", ":2: ", "'world.dt_ms'");  // was 'physics.dt_ms'
+  expect_bad_scenario("camera:\n  rate_hz: 0\n", ":2: ", "'camera.rate_hz'");
+  expect_bad_scenario("sensors:\n  gps:\n    latency_ms: -5\n", ":3: ",
+                      "'sensors.gps.latency_ms'");
+  expect_bad_scenario("render:\n  backend: vulkan\n", ":2: ", "'render.backend'");
+  expect_bad_scenario("video:\n  chase_width_px: 641\n", ":2: ", "'video.chase_width_px'");
+}
+
+TEST(Cli, DuplicateKeyIsBadInput) {
+  expect_bad_scenario("seed: 1\nduration_s: 5\nseed: 2\n", ":3: ", "duplicate key 'seed'");
+}
+
+TEST(Cli, EmptyScenarioFileIsBadInput) {
+  expect_bad_scenario("", ":1: ", "empty");
+  expect_bad_scenario("# nothing but a comment\n", ":1: ", "empty");
+}
+
 TEST(Cli, WrongTypeNamesTheKeyAndLine) {
   const std::string dir = temp_dir();
   const std::string yaml = write_file(dir, "s.yaml", "seed: 1\nduration_s: forever\n");

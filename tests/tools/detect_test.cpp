@@ -15,6 +15,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "common/json_checks.h"
 #include "lander/estimator/target.h"
 #include "tools/support/cli.h"
 #include "lander/estimator/types.h"
@@ -64,21 +65,6 @@ cv::Mat render(const TargetGeometry& g, const CameraModel& cam, const Eigen::Iso
   return img;
 }
 
-// The numbers of the JSON array after "key": [ (first n).
-std::vector<double> json_array(const std::string& json, const std::string& key, int n) {
-  std::vector<double> out;
-  std::size_t i = json.find("\"" + key + "\": [");
-  if (i == std::string::npos) return out;
-  i = json.find('[', i) + 1;
-  for (int k = 0; k < n; ++k) {
-    char* end = nullptr;
-    out.push_back(std::strtod(json.c_str() + i, &end));
-    i = static_cast<std::size_t>(end - json.c_str());
-    i = json.find_first_not_of(", ", i);
-  }
-  return out;
-}
-
 // Position tolerance (m): the code pose at 0.4 m is within ~0.1 mm on exact renders
 // (tests/estimator/vision_close_range_test.cpp); the PNG is 8-bit and the render here is a
 // 3x supersampled bilinear warp, so 2 mm (1/200 of the distance) allows for its aliasing.
@@ -95,14 +81,17 @@ TEST(DetectCli, SyntheticCloseRangePngGivesItsPose) {
   ASSERT_TRUE(cv::imwrite(png, render(g, cam, X)));
   const auto r = run_lander("detect " + png + " --camera " + kCamera + " --json");
   ASSERT_EQ(r.code, 0) << r.output;
-  EXPECT_NE(r.output.find("\"detected\": true"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("\"source\": \"code\""), std::string::npos) << r.output;
-  const auto p = json_array(r.output, "p_CP_m", 3);
-  const auto q = json_array(r.output, "q_CP_wxyz", 4);
+  const nlohmann::json j = test::parse_json(r.out);
+  EXPECT_TRUE(test::bool_at(j, "detected")) << r.output;
+  EXPECT_EQ(test::string_at(j, "source"), "code") << r.output;
+  const nlohmann::json& p = test::at_path(j, "p_CP_m");
+  const nlohmann::json& q = test::at_path(j, "q_CP_wxyz");
   ASSERT_EQ(p.size(), 3u);
   ASSERT_EQ(q.size(), 4u);
-  EXPECT_LT((Eigen::Vector3d(p[0], p[1], p[2]) - X.translation()).norm(), kPosTolM) << r.output;
-  const Eigen::Quaterniond qd(q[0], q[1], q[2], q[3]);
+  const Eigen::Vector3d p_CP(p.at(0).get<double>(), p.at(1).get<double>(), p.at(2).get<double>());
+  EXPECT_LT((p_CP - X.translation()).norm(), kPosTolM) << r.output;
+  const Eigen::Quaterniond qd(q.at(0).get<double>(), q.at(1).get<double>(), q.at(2).get<double>(),
+                              q.at(3).get<double>());
   EXPECT_LT(qd.angularDistance(Eigen::Quaterniond(X.linear())), kRotTolRad) << r.output;
 }
 

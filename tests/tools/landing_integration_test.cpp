@@ -3,14 +3,12 @@
 // truth (touchdown offset from the trace, not from anything the flight software reports).
 #include <gtest/gtest.h>
 
-#include <sys/wait.h>
-
 #include <cmath>
-#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <vector>
 
+#include "common/json_checks.h"
 #include "tools/support/cli.h"
 
 namespace {
@@ -23,12 +21,6 @@ constexpr double kRestOffsetTolM = 0.08;
 
 using lander::test::slurp;
 
-double json_number(const std::string& json, const std::string& key) {
-  const auto pos = json.find("\"" + key + "\": ");
-  if (pos == std::string::npos) return std::nan("");
-  return std::strtod(json.c_str() + pos + key.size() + 4, nullptr);
-}
-
 TEST(LandingIntegration, ShortLandingOnTheStaticPlatformTouchesDownAtTheCentre) {
   const std::string dir = lander::test::make_temp_dir("lander_land");
   std::ofstream(dir + "/s.yaml") << "name: short_static_landing\n"
@@ -36,14 +28,13 @@ TEST(LandingIntegration, ShortLandingOnTheStaticPlatformTouchesDownAtTheCentre) 
                                     "duration_s: 60\n"
                                     "cart: {path: static, start_m: [0.0, 0.0]}\n"
                                     "vehicle: {control: closed_loop, start_m: [-0.6, 0.4, 4.0]}\n";
-  const std::string cmd = std::string(LANDER_BINARY) + " run " + dir + "/s.yaml --out " + dir +
-                          "/out --quiet > " + dir + "/log.txt 2>&1";
-  const int status = std::system(cmd.c_str());
-  const std::string summary = slurp(dir + "/out/summary.json");
-  ASSERT_FALSE(summary.empty()) << slurp(dir + "/log.txt");
-  EXPECT_EQ(WEXITSTATUS(status), 0) << summary;
-  EXPECT_NE(summary.find("\"landed\": true"), std::string::npos) << summary;
-  EXPECT_LT(json_number(summary, "touchdown_offset_m"), kTouchdownOffsetTolM) << summary;
+  const auto r = lander::test::run_lander({"run", dir + "/s.yaml", "--out", dir + "/out", "--quiet"});
+  const std::string text = slurp(dir + "/out/summary.json");
+  ASSERT_FALSE(text.empty()) << r.output;
+  EXPECT_EQ(r.code, 0) << text;
+  const nlohmann::json summary = lander::test::parse_json(text);
+  EXPECT_TRUE(lander::test::bool_at(summary, "landed")) << text;
+  EXPECT_LT(lander::test::number_at(summary, "touchdown_offset_m"), kTouchdownOffsetTolM) << text;
   // Truth from the trace's last row: the vehicle rests over the platform centre.
   std::ifstream trace(dir + "/out/trace.csv");
   std::string header, line, last;

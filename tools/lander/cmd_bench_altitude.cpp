@@ -14,31 +14,21 @@
 #include <sstream>
 
 #include "command.h"
-#include "lander/sim/json.h"
+#include "lander/sim/output_files.h"
 #include "lander/sim/run.h"
 
 namespace lander::cli {
 namespace {
 
-std::string slurp(const std::string& path) {
-  std::ifstream f(path);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
+using Json = nlohmann::ordered_json;
 
-// The "by_sensor" object of a run's summary.json, as text.
-std::string by_sensor(const std::string& summary_text) {
-  const std::string key = "\"by_sensor\": ";
-  const auto pos = summary_text.find(key);
-  if (pos == std::string::npos) throw std::runtime_error("summary has no altitude_fusion.by_sensor");
-  // The object ends where its braces balance.
-  int depth = 0;
-  for (std::size_t i = pos + key.size(); i < summary_text.size(); ++i) {
-    if (summary_text[i] == '{') ++depth;
-    if (summary_text[i] == '}' && --depth == 0) return summary_text.substr(pos + key.size(), i - pos - key.size() + 1);
-  }
-  throw std::runtime_error("malformed summary");
+// The "altitude_fusion.by_sensor" object of a run's summary.json.
+Json by_sensor(const std::string& run_dir) {
+  const std::string path = run_dir + "/summary.json";
+  std::ifstream f(path);
+  if (!f) throw std::runtime_error(path + ": cannot read");
+  const Json summary = Json::parse(f);
+  return summary.at("altitude_fusion").at("by_sensor");
 }
 
 // Max |fused z - true z| over [t0, t1] from a run's trace.csv.
@@ -72,7 +62,7 @@ int bench_altitude(const Args& args) {
   const bool quick = a.flag("quick");
   const std::string out = a.value("out", "/tmp/lander_bench_altitude");
   const std::string dir = std::string(LANDER_SCENARIOS_DIR);
-  sim::Json result = sim::Json::object();
+  Json result;
   auto run = [&](sim::Scenario s, const std::string& name) {
     sim::RunOptions o;
     o.out_dir = out + "/" + name;
@@ -82,7 +72,7 @@ int bench_altitude(const Args& args) {
     return o.out_dir;
   };
   // Static: hold above the static platform, never approach.
-  sim::Json statics = sim::Json::object();
+  Json statics;
   const std::vector<double> heights = quick ? std::vector<double>{5.12} : std::vector<double>{5.12, 9.32, 13.52, 17.72};
   for (double h : heights) {
     sim::Scenario s = sim::Scenario::load(dir + "/static_platform.yaml");
@@ -90,7 +80,7 @@ int bench_altitude(const Args& args) {
     s.controller.landing.observe_frames = 1000000;
     s.duration_s = quick ? 10.0 : 30.0;
     const std::string d = run(s, "static_" + std::to_string(static_cast<int>(h * 100)));
-    statics[std::to_string(h).substr(0, 5)] = sim::Json::raw(by_sensor(slurp(d + "/summary.json")));
+    statics[std::to_string(h).substr(0, 5)] = by_sensor(d);
   }
   result["static"] = statics;
   {  // Hover at 10 m for 60 s in light wind.
@@ -100,12 +90,12 @@ int bench_altitude(const Args& args) {
     s.wind.steady_W_mps = {1.0, 0.5, 0.0};
     s.wind.gust_std_horizontal_mps = 0.3;
     s.duration_s = quick ? 10.0 : 60.0;
-    result["hover"] = sim::Json::raw(by_sensor(slurp(run(s, "hover") + "/summary.json")));
+    result["hover"] = by_sensor(run(s, "hover"));
   }
   {  // Descent: the default landing.
     sim::Scenario s = sim::Scenario::load(dir + "/default.yaml");
     if (quick) s.duration_s = 30.0;
-    result["descent"] = sim::Json::raw(by_sensor(slurp(run(s, "descent") + "/summary.json")));
+    result["descent"] = by_sensor(run(s, "descent"));
   }
   // Faults: each is the default landing with one fault injected at t = 12 s; the fused
   // estimate's max deviation from truth over the fault window.
@@ -135,20 +125,20 @@ int bench_altitude(const Args& args) {
          f.vision_outlier_m = 1.0;
        }},
   };
-  sim::Json faults = sim::Json::object();
+  Json faults;
   for (const Fault& fr : fault_runs) {
     sim::Scenario s = sim::Scenario::load(dir + "/default.yaml");
     fr.inject(s.faults);
     if (quick) s.duration_s = 20.0;
     const std::string d = run(s, std::string("fault_") + fr.key);
-    sim::Json j = sim::Json::object();
+    Json j;
     j["fault"] = fr.text;
     j["fused_max_deviation_m"] = max_fused_deviation(d + "/trace.csv", 12.0, 12.0 + fr.window_s);
     faults[fr.key] = j;
   }
   result["faults"] = faults;
-  sim::write_text_file(a.value("json"), result.dump());
-  std::cout << result.dump();
+  sim::write_json_file(a.value("json"), result);
+  std::cout << sim::json_text(result);
   return kExitOk;
 }
 

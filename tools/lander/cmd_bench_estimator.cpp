@@ -11,7 +11,7 @@
 #include "command.h"
 #include "lander/sim/camera.h"
 #include "lander/sim/estimator_bench.h"
-#include "lander/sim/json.h"
+#include "lander/sim/output_files.h"
 #include "lander/sim/peer_detectors.h"
 #include "lander/sim/renderer.h"
 #include "lander/sim/scenario.h"
@@ -88,7 +88,7 @@ int bench_estimator(const Args& args) {
     };
     json = sim::run_estimator_bench(fn, X_WP, world.target(), cam, s.estimator.vision, bp, &std::cerr);
   }
-  sim::write_text_file(a.value("json"), json);
+  sim::write_file_atomic(a.value("json"), json);
   std::cout << json;
   return kExitOk;
 }

@@ -4,10 +4,9 @@
 // in rendering, the estimator, control (sensors, filters, controller) and physics.
 #include <fstream>
 #include <iostream>
-#include <sstream>
 
 #include "command.h"
-#include "lander/sim/json.h"
+#include "lander/sim/output_files.h"
 #include "lander/sim/run.h"
 
 namespace lander::cli {
@@ -21,13 +20,12 @@ int bench_loop(const Args& args) {
   s.validate();
   sim::RunOptions o;
   o.out_dir = a.value("out", "/tmp/lander_bench_loop");
-  const sim::Json summary = sim::run_scenario(s, o);
+  const nlohmann::ordered_json summary = sim::run_scenario(s, o);
   std::ifstream perf_file(o.out_dir + "/performance.json");
-  std::stringstream perf;
-  perf << perf_file.rdbuf();
-  sim::write_text_file(a.value("json"), perf.str());
-  std::cout << perf.str();
-  std::cerr << "scenario " << s.name << ": " << summary.find("outcome")->string() << "\n";
+  const nlohmann::ordered_json perf = nlohmann::ordered_json::parse(perf_file);
+  sim::write_json_file(a.value("json"), perf);
+  std::cout << sim::json_text(perf);
+  std::cerr << "scenario " << s.name << ": " << summary.at("outcome").get<std::string>() << "\n";
   return kExitOk;
 }
 

@@ -2,24 +2,19 @@
 // Renders N frames (default 300) of the default scene from the vehicle camera at 1280x720,
 // first plain (MuJoCo render + readPixels + one flip/convert), then with motion blur of 8
 // sub-renders per frame, and writes the median milliseconds per frame.
-#include <algorithm>
 #include <chrono>
 #include <iostream>
 
 #include "command.h"
 #include "lander/sim/camera.h"
-#include "lander/sim/json.h"
+#include "lander/sim/output_files.h"
 #include "lander/sim/renderer.h"
 #include "lander/sim/scenario.h"
+#include "lander/sim/stats.h"
 #include "lander/sim/world.h"
 
 namespace lander::cli {
 namespace {
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v[v.size() / 2];
-}
 
 int bench_render(const Args& args) {
   ArgParser a(args, {"json", "frames", "backend", "msaa", "scenario"}, {"shadows"});
@@ -72,17 +67,17 @@ int bench_render(const Args& args) {
     pipeline.finish(i, world.X_WC());
     blur.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   }
-  sim::Json j = sim::Json::object();
-  j["ms_per_frame_median"] = median(plain);
-  j["ms_per_frame_blur8_median"] = median(blur);
+  nlohmann::ordered_json j;
+  j["ms_per_frame_median"] = sim::summarize(plain).median;
+  j["ms_per_frame_blur8_median"] = sim::summarize(blur).median;
   j["backend"] = renderer.backend_description();
   j["frames"] = n;
   j["width_px"] = W;
   j["height_px"] = H;
   j["msaa_samples"] = s.render.msaa_samples;
   j["shadows"] = s.render.shadows;
-  sim::write_text_file(a.value("json"), j.dump());
-  std::cout << j.dump();
+  sim::write_json_file(a.value("json"), j);
+  std::cout << sim::json_text(j);
   return kExitOk;
 }
 

@@ -20,13 +20,13 @@ int run(const Args& args) {
   o.out_dir = a.value("out");
   o.video = a.flag("video");
   o.progress = !a.flag("quiet");
-  const sim::Json summary = sim::run_scenario(s, o);
-  std::cout << "lander run: " << s.name << ": " << summary.find("outcome")->string()
-            << "\noutputs in " << o.out_dir << "/ (summary.json, trace.csv, scenario.resolved.yaml"
+  const nlohmann::ordered_json summary = sim::run_scenario(s, o);
+  const std::string outcome = summary.at("outcome").get<std::string>();
+  std::cout << "lander run: " << s.name << ": " << outcome << "\noutputs in " << o.out_dir
+            << "/ (summary.json, trace.csv, scenario.resolved.yaml"
             << (o.video ? ", camera.mp4, chase.mp4" : "") << ")\n";
-  const sim::Json* landed = summary.find("landed");
-  const bool scripted = s.vehicle.control == "kinematic";
-  return (scripted || (landed && landed->boolean())) ? kExitOk : kExitFailure;
+  // Success: a landing, or a scripted flight flown to its end.
+  return (outcome == "landed" || outcome == "scripted_flight_complete") ? kExitOk : kExitFailure;
 }
 
 const LanderCommand reg("run",

@@ -112,6 +112,10 @@ void AltitudeFusion::set_attitude(const Eigen::Quaterniond& q_WB) {
 
 void AltitudeFusion::predict(const ImuSample& imu, const Eigen::Quaterniond& q_WB,
                              double gravity_mps2) {
+  if (!q_WB.coeffs().allFinite()) {
+    ++rejected_inputs_;
+    return;
+  }
   set_attitude(q_WB);
   predict(imu.t_s, vertical_accel_W(imu, q_WB, gravity_mps2));
 }
@@ -119,9 +123,12 @@ void AltitudeFusion::predict(const ImuSample& imu, const Eigen::Quaterniond& q_W
 // Eq. 19 and 21 with the IMU-driven model (see the header for why not eq. 13):
 //   x_{k+1|k} = F x_k + G a,   P_{k+1|k} = F P F^T + Q.
 void AltitudeFusion::predict(double t_s, double az_W_mps2) {
+  if (!std::isfinite(az_W_mps2) || !std::isfinite(t_s)) {  // a bad sample: skipped, never thrown
+    ++rejected_inputs_;
+    return;
+  }
   const double dt = t_s - t_s_;
   if (!(dt > 0)) return;
-  if (!std::isfinite(az_W_mps2)) throw std::invalid_argument("AltitudeFusion: non-finite accel");
   Mat F = Mat::Identity();
   F(kZ, kVz) = dt;
   F(kZ, kAccelBias) = -0.5 * dt * dt;
@@ -207,7 +214,7 @@ AltitudeFusion::Outcome AltitudeFusion::gated_update(const Row& H, double z, dou
 
 AltitudeFusion::Outcome AltitudeFusion::update_baro(const BaroSample& s) {
   if (!age_ok(s.t_s)) return Outcome::kRejectedStale;
-  if (!(s.pressure_pa > 0)) return Outcome::kRejectedRange;
+  if (!(s.pressure_pa > 0) || !std::isfinite(s.pressure_pa)) return Outcome::kRejectedRange;
   // Eq. 15 only: near the surface the downwash corrupts the baro (seed 004 sec. 4.2).
   if (low_set_) return Outcome::kRejectedSet;
   const double h_q = isa_altitude_m(s.pressure_pa) - p_.baro_origin_msl_m;  // eq. 8
@@ -217,7 +224,7 @@ AltitudeFusion::Outcome AltitudeFusion::update_baro(const BaroSample& s) {
 
 AltitudeFusion::Outcome AltitudeFusion::update_gps(const GpsSample& s) {
   if (!age_ok(s.t_s)) return Outcome::kRejectedStale;
-  if (!s.valid || !s.p_W_m.allFinite()) return Outcome::kRejectedRange;
+  if (!s.valid || !std::isfinite(s.p_W_m.z())) return Outcome::kRejectedRange;
   return gated_update(row({{kZ, 1.0}, {kGpsErr, 1.0}}, t_s_ - s.t_s), s.p_W_m.z(),
                       p_.gps_white_std_m * p_.gps_white_std_m, 1);
 }
@@ -226,7 +233,7 @@ AltitudeFusion::Outcome AltitudeFusion::update_vision(double t_s, double h_plane
                                                       double std_m) {
   if (!age_ok(t_s)) return Outcome::kRejectedStale;
   if (!std::isfinite(h_plane_m) || h_plane_m <= 0) return Outcome::kRejectedRange;
-  const double sd = std_m > 0 ? std_m : p_.vision_std_m;
+  const double sd = std_m > 0 && std::isfinite(std_m) ? std_m : p_.vision_std_m;
   return gated_update(row({{kZ, 1.0}, {kPlane, -1.0}}, t_s_ - t_s), h_plane_m, sd * sd, 2);
 }
 

@@ -53,7 +53,10 @@ bool Navigation::add_mag(const MagSample& mag) {
   return true;
 }
 
-void Navigation::add_imu(const ImuSample& imu) {
+bool Navigation::add_imu(const ImuSample& imu) {
+  if (!std::isfinite(imu.t_s) || !imu.gyro_B_radps.allFinite() || !imu.accel_B_mps2.allFinite()) {
+    return false;
+  }
   const Eigen::Vector3d f = imu.accel_B_mps2;
   if (!att_init_) {
     // Roll and pitch from gravity at rest: f_B = R_WB^T g e_z.
@@ -66,10 +69,10 @@ void Navigation::add_imu(const ImuSample& imu) {
     att_init_ = true;
     f_W_lp_ = q_WB_ * f;
     omega_B_ = imu.gyro_B_radps;
-    return;
+    return true;
   }
   const double dt = imu.t_s - t_s_;
-  if (!(dt > 0)) return;
+  if (!(dt > 0)) return true;
   t_s_ = imu.t_s;
 
   // --- Mahony explicit complementary filter.
@@ -106,7 +109,7 @@ void Navigation::add_imu(const ImuSample& imu) {
   // --- Per-axis [p, v, b] prediction with the accelerometer in W.
   const Eigen::Vector3d a_meas_W = q_WB_ * f - Eigen::Vector3d(0, 0, p_.gravity_mps2);
   a_W_ = a_meas_W - b_a_;
-  if (!pos_init_) return;
+  if (!pos_init_) return true;
   Eigen::Matrix3d F = Eigen::Matrix3d::Identity();
   F(0, 1) = dt;
   F(0, 2) = -0.5 * dt * dt;
@@ -122,6 +125,7 @@ void Navigation::add_imu(const ImuSample& imu) {
     vel_[i] += a_W_[i] * dt;
     P_[i] = F * P_[i] * F.transpose() + Q;
   }
+  return true;
 }
 
 bool Navigation::add_gps(const GpsSample& gps) {

@@ -8,6 +8,7 @@
 #include <optional>
 #include <sstream>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -753,114 +754,60 @@ PlatformObservation to_platform_observation(const RingDetection& d, double t_s) 
   return o;
 }
 
-namespace {
-std::string esc(const std::string& s) {
-  std::string o;
-  for (char c : s) {
-    if (c == '"' || c == '\\') {
-      o += '\\';
-      o += c;
-    } else if (static_cast<unsigned char>(c) < 0x20) {
-      o += ' ';
-    } else {
-      o += c;
-    }
-  }
-  return o;
-}
-}  // namespace
-
 std::string to_json(const RingDetection& d) {
-  std::ostringstream os;
-  os << std::setprecision(10);
-  auto num = [&](double v) {
-    if (std::isfinite(v)) {
-      os << v;
-    } else {
-      os << "null";
-    }
-  };
+  using Json = nlohmann::ordered_json;  // NaN and infinities are written as null
   const Eigen::Quaterniond q(d.X_CP.linear());
-  os << "{\"detected\": " << (d.detected ? "true" : "false") << ", \"status\": \""
-     << to_string(d.status) << "\", \"reason\": \"" << esc(d.reason) << "\"";
-  os << ", \"source\": \"" << to_string(d.source) << "\"";
-  os << ", \"code\": {\"searched\": " << (d.code_searched ? "true" : "false")
-     << ", \"detected\": " << (d.code.detected ? "true" : "false") << ", \"reason\": \""
-     << esc(d.code.reason) << "\", \"cells_read\": " << d.code.cells_read
-     << ", \"corners\": " << d.code.corners_px.size() << ", \"rotation\": "
-     << d.code.placement.rotation << ", \"reproj_rms_px\": ";
-  num(d.code.reproj_rms_px);
-  os << "}";
-  os << ", \"p_CP_m\": [";
-  num(d.X_CP.translation().x());
-  os << ", ";
-  num(d.X_CP.translation().y());
-  os << ", ";
-  num(d.X_CP.translation().z());
-  os << "], \"q_CP_wxyz\": [";
-  num(q.w());
-  os << ", ";
-  num(q.x());
-  os << ", ";
-  num(q.y());
-  os << ", ";
-  num(q.z());
-  os << "], \"cov_rot_trans\": [";
+  const Eigen::Vector3d p = d.X_CP.translation();
+  Json j;
+  j["detected"] = d.detected;
+  j["status"] = to_string(d.status);
+  j["reason"] = d.reason;
+  j["source"] = to_string(d.source);
+  j["code"] = {{"searched", d.code_searched},
+               {"detected", d.code.detected},
+               {"reason", d.code.reason},
+               {"cells_read", d.code.cells_read},
+               {"corners", d.code.corners_px.size()},
+               {"rotation", d.code.placement.rotation},
+               {"reproj_rms_px", d.code.reproj_rms_px}};
+  j["p_CP_m"] = {p.x(), p.y(), p.z()};
+  j["q_CP_wxyz"] = {q.w(), q.x(), q.y(), q.z()};
+  Json cov = Json::array();
   for (int r = 0; r < 6; ++r) {
-    os << (r ? ", [" : "[");
-    for (int c = 0; c < 6; ++c) {
-      if (c) os << ", ";
-      num(d.cov(r, c));
-    }
-    os << "]";
+    Json row = Json::array();
+    for (int c = 0; c < 6; ++c) row.push_back(d.cov(r, c));
+    cov.push_back(row);
   }
-  os << "], \"reproj_err_px\": ";
-  num(d.reproj_err_px);
-  os << ", \"reproj_err_sum_px2\": ";
-  num(d.reproj_err_sum_px2);
-  os << ", \"edge_rms_px\": ";
-  num(d.edge_rms_px);
-  os << ", \"keyframe\": " << (d.keyframe ? "true" : "false") << ", \"keyframe_status\": \""
-     << to_string(d.keyframe_status) << "\", \"rho\": ";
-  num(d.rho);
-  os << ", \"used_roi\": " << (d.used_roi ? "true" : "false") << ", \"roi\": [" << d.roi.x
-     << ", " << d.roi.y << ", " << d.roi.width << ", " << d.roi.height << "], \"time_ms\": ";
-  num(d.time_ms);
-  os << ", \"centres\": [";
-  for (std::size_t i = 0; i < d.centres.size(); ++i) {
-    const auto& c = d.centres[i];
-    os << (i ? ", " : "") << "{\"ring_id\": " << c.ring_id << ", \"centre_px\": [";
-    num(c.centre_px.x());
-    os << ", ";
-    num(c.centre_px.y());
-    os << "], \"centre_image_px\": [";
-    num(c.centre_image_px.x());
-    os << ", ";
-    num(c.centre_image_px.y());
-    os << "], \"radius_ratio\": ";
-    num(c.radius_ratio);
-    os << "}";
+  j["cov_rot_trans"] = cov;
+  j["reproj_err_px"] = d.reproj_err_px;
+  j["reproj_err_sum_px2"] = d.reproj_err_sum_px2;
+  j["edge_rms_px"] = d.edge_rms_px;
+  j["keyframe"] = d.keyframe;
+  j["keyframe_status"] = to_string(d.keyframe_status);
+  j["rho"] = d.rho;
+  j["used_roi"] = d.used_roi;
+  j["roi"] = {d.roi.x, d.roi.y, d.roi.width, d.roi.height};
+  j["time_ms"] = d.time_ms;
+  Json centres = Json::array();
+  for (const auto& c : d.centres) {
+    centres.push_back({{"ring_id", c.ring_id},
+                       {"centre_px", {c.centre_px.x(), c.centre_px.y()}},
+                       {"centre_image_px", {c.centre_image_px.x(), c.centre_image_px.y()}},
+                       {"radius_ratio", c.radius_ratio}});
   }
-  os << "], \"ellipses\": [";
-  for (std::size_t i = 0; i < d.ellipses.size(); ++i) {
-    const auto& e = d.ellipses[i];
-    os << (i ? ", " : "") << "{\"ring_id\": " << e.ring_id
-       << ", \"outer\": " << (e.outer ? "true" : "false") << ", \"centre_px\": [";
-    num(e.image.centre.x());
-    os << ", ";
-    num(e.image.centre.y());
-    os << "], \"axes_px\": [";
-    num(e.image.a);
-    os << ", ";
-    num(e.image.b);
-    os << "], \"angle_rad\": ";
-    num(e.image.angle_rad);
-    os << ", \"fit_rms_px\": ";
-    num(e.fit_rms_px);
-    os << "}";
+  j["centres"] = centres;
+  Json ellipses = Json::array();
+  for (const auto& e : d.ellipses) {
+    ellipses.push_back({{"ring_id", e.ring_id},
+                        {"outer", e.outer},
+                        {"centre_px", {e.image.centre.x(), e.image.centre.y()}},
+                        {"axes_px", {e.image.a, e.image.b}},
+                        {"angle_rad", e.image.angle_rad},
+                        {"fit_rms_px", e.fit_rms_px}});
   }
-  os << "]}";
-  return os.str();
+  j["ellipses"] = ellipses;
+  // Invalid UTF-8 in a reason (never expected) is replaced rather than thrown.
+  return j.dump(-1, ' ', false, Json::error_handler_t::replace);
 }
 
 CameraModel load_camera_model(const std::string& path) {

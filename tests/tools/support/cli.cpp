@@ -1,25 +1,42 @@
 #include "tools/support/cli.h"
 
-#include <sys/wait.h>
+#include <unistd.h>
 
-#include <array>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
-#include <vector>
+
+#include "lander/sim/process.h"
 
 namespace lander::test {
 
+CliResult run_lander(const std::vector<std::string>& args) {
+  const std::string dir = make_temp_dir("lander_cli_io");
+  std::vector<std::string> argv = {LANDER_BINARY};
+  argv.insert(argv.end(), args.begin(), args.end());
+  sim::SpawnOptions o;
+  o.stdout_path = dir + "/stdout";
+  o.stderr_path = dir + "/stderr";
+  sim::ChildProcess p = sim::ChildProcess::spawn(argv, o);
+  const sim::ExitStatus st = p.wait();
+  CliResult r;
+  r.code = st.signaled ? -1 : st.code;
+  r.signal = st.signaled ? st.signal : 0;
+  r.out = slurp(o.stdout_path);
+  r.err = slurp(o.stderr_path);
+  r.output = r.out + r.err;
+  std::remove(o.stdout_path.c_str());
+  std::remove(o.stderr_path.c_str());
+  rmdir(dir.c_str());
+  return r;
+}
+
 CliResult run_lander(const std::string& args) {
-  const std::string cmd = std::string(LANDER_BINARY) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return {-1, "popen failed: " + cmd};
-  std::string out;
-  std::array<char, 4096> buf;
-  while (std::size_t n = std::fread(buf.data(), 1, buf.size(), p)) out.append(buf.data(), n);
-  const int status = pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+  std::vector<std::string> argv;
+  std::istringstream in(args);
+  for (std::string a; in >> a;) argv.push_back(a);
+  return run_lander(argv);
 }
 
 std::string make_temp_dir(const std::string& prefix) {

@@ -1,16 +1,24 @@
-// Helpers for tests that run the `lander` binary (LANDER_BINARY) as a user would.
+// Helpers for tests that run the `lander` binary (LANDER_BINARY) as a user would. The binary
+// is started from an argument vector (ChildProcess, no shell), so any byte may appear in an
+// argument.
 #pragma once
 
 #include <string>
+#include <vector>
 
 namespace lander::test {
 
 struct CliResult {
   int code;            ///< exit code (-1 if the process did not exit normally)
+  int signal;          ///< the signal that ended it, 0 if it exited
+  std::string out;     ///< stdout
+  std::string err;     ///< stderr
   std::string output;  ///< stdout + stderr
 };
 
-// Runs `lander ARGS`, capturing its output.
+// Runs `lander ARGV...`, capturing its output.
+CliResult run_lander(const std::vector<std::string>& argv);
+// Runs `lander ARGS` with ARGS split at spaces (arguments without spaces only).
 CliResult run_lander(const std::string& args);
 
 // A fresh directory under /tmp whose name starts with `prefix`.

@@ -85,15 +85,21 @@ class LandingController {
   LandingController(const ControllerParams& params, const CameraMount& mount);
 
   // A vision result, delivered after its latency; obs.t_s is the frame's mid-exposure time.
-  // It is applied at the next step() with the navigation state interpolated at obs.t_s.
+  // It is applied at the next step() with the navigation state interpolated at obs.t_s. A
+  // result with a non-finite or impossible pose is dropped and counted (rejected_inputs).
   void on_vision(const PlatformObservation& obs);
 
-  // The fused altitude (used for the search height when no platform is known).
+  // The fused altitude (used for the search height when no platform is known). A non-finite
+  // estimate is dropped and counted.
   void on_altitude(const AltitudeEstimate& alt);
 
   // Inner loop (call at >= 250 Hz with non-decreasing t_s). Runs the outer loop and the mode
-  // machine when due (CascadeParams::outer_rate_hz), contact detection every call.
+  // machine when due (CascadeParams::outer_rate_hz), contact detection every call. With a
+  // non-finite time, navigation state or IMU sample it holds the previous command (counted).
   RotorCommand step(double t_s, const NavState& nav, const ImuSample& imu);
+
+  // Inputs dropped as non-finite or impossible (vision results, altitudes, inner steps).
+  long rejected_inputs() const { return rejected_inputs_; }
 
   Mode mode() const { return mode_; }
   const std::vector<ModeTransition>& transitions() const { return transitions_; }
@@ -143,6 +149,8 @@ class LandingController {
   double contact_accum_s_{0.0};
   double last_inner_t_{0.0};
   Setpoint last_sp_;
+  RotorCommand last_cmd_;
+  long rejected_inputs_{0};
 };
 
 }  // namespace lander::ctl

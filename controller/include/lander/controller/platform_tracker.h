@@ -12,6 +12,7 @@
 
 #include "lander/controller/params.h"
 #include "lander/controller/trajectory.h"
+#include "lander/estimator/sample_screen.h"
 #include "lander/estimator/state.h"
 #include "lander/estimator/types.h"
 
@@ -49,6 +50,8 @@ class PlatformTracker {
 
   // Processes one vision result. A detected keyframe becomes a fix (returns true); a detected
   // non-keyframe (blurred) counts as "in view" only; no detection resets the keyframe streak.
+  // A detection with a non-finite or impossible pose (plausible_observation) is dropped and
+  // counted in rejected_observations().
   bool add_observation(const PlatformObservation& obs);
 
   // Eq. 24 extended with the camera lever arm: p_W = R_WB (R_BC p_CP + p_BC) + p_WB.
@@ -63,6 +66,8 @@ class PlatformTracker {
   int total_fixes() const { return total_fixes_; }
   /// Fixes the velocity filter rejected as outliers since the last clear().
   int rejected_fixes() const { return rejected_fixes_; }
+  /// Vision results dropped as implausible (non-finite pose or covariance) since the start.
+  int rejected_observations() const { return rejected_observations_; }
   int keyframe_streak() const { return streak_; }
   bool has_fix() const { return !fixes_.empty(); }
   const PlatformFix& latest() const;  ///< throws std::logic_error if none
@@ -130,6 +135,7 @@ class PlatformTracker {
   int kf_outliers_in_row_{0};
   int total_fixes_{0};
   int rejected_fixes_{0};
+  int rejected_observations_{0};
   std::deque<PlatformFix> fixes_;
   int streak_{0};
   double last_detection_t_;

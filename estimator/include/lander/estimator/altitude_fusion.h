@@ -196,11 +196,15 @@ class AltitudeFusion {
   // known to surface_std_m. Vision and GPS then sort out z and the bias.
   void reset_from_baro(const BaroSample& b, double surface_W_m = 0.0, double surface_std_m = 2.0);
   // Propagates to t_s (>= current time) with the vertical acceleration in W (m/s^2, gravity
-  // removed) held over the interval. Calls with t_s <= current time do nothing.
+  // removed) held over the interval. Calls with t_s <= current time do nothing; a non-finite
+  // acceleration or time is skipped and counted (rejected_inputs), never thrown.
   void predict(double t_s, double az_W_mps2);
   // Convenience: predict with an IMU sample and the attitude estimate (also remembers the
-  // tilt for the ultrasonic, see set_attitude).
+  // tilt for the ultrasonic, see set_attitude). A non-finite attitude is skipped and counted.
   void predict(const ImuSample& imu, const Eigen::Quaterniond& q_WB, double gravity_mps2 = 9.81);
+  // Prediction inputs skipped because they were not finite (every update_* refuses
+  // non-finite measurements with kRejectedRange or kRejectedStale).
+  long rejected_inputs() const { return rejected_inputs_; }
   // Attitude used to turn the slant ultrasonic range (along -z_B) into a vertical height:
   // h = range * (R_WB)_zz (flat surface assumed).
   void set_attitude(const Eigen::Quaterniond& q_WB);
@@ -248,6 +252,7 @@ class AltitudeFusion {
   std::array<int, 3> rejects_{};  // consecutive outlier rejections: baro, GPS, vision
   bool us_suspect_{false};  // garbage seen since the last trusted ultrasonic reading
   int us_run_{0};           // consecutive in-gate readings while suspect
+  long rejected_inputs_{0};
 };
 
 }  // namespace lander

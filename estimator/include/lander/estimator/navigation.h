@@ -100,8 +100,9 @@ class Navigation {
  public:
   explicit Navigation(const NavigationParams& p);  // validates p
   // Integrates one IMU sample. The first sample initialises roll and pitch from gravity
-  // (vehicle assumed at rest) and yaw from params.
-  void add_imu(const ImuSample& imu);
+  // (vehicle assumed at rest) and yaw from params. Returns false (and changes nothing) for a
+  // sample that is not finite.
+  bool add_imu(const ImuSample& imu);
   // Fuses one GPS fix. The first valid fix initialises position and velocity. Returns false
   // if the fix was not used (invalid, stale, before the first IMU sample).
   bool add_gps(const GpsSample& gps);

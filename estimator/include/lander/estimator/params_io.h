@@ -8,9 +8,15 @@
 //     v.nested("camera", p.camera);              // a nested params struct
 //   }
 //
-// and a `void validate() const` that throws ConfigError naming the field. The same list
-// drives reading (YamlReader: only the keys present are applied on top of the defaults,
-// unknown keys are rejected with file:line) and writing (YamlWriter: the resolved params).
+// and a `void validate() const` that checks every field with require(ok, "key", "problem"),
+// naming the key by its path relative to the struct exactly as visit_fields spells it
+// ("rate_hz", "intrinsics.width_px"), and a nested struct with validate_nested("camera",
+// camera), which prefixes its keys ("camera.rate_hz"). The same list drives reading
+// (YamlReader: only the keys present are applied on top of the defaults; unknown and
+// duplicate keys are rejected with file:line; every key's line is recorded) and writing
+// (YamlWriter: the resolved params). read_params() then validates and turns a failing key into
+// "file:line: invalid value for 'camera.rate_hz': ..." with the line of that key, or of its
+// nearest parent written in the file when the key itself kept its default.
 // The header needs nothing but yaml-cpp, so controller params can use the visitor protocol
 // without the controller library linking yaml-cpp.
 #pragma once
@@ -19,6 +25,7 @@
 
 #include <array>
 #include <cstdint>
+#include <map>
 #include <set>
 #include <stdexcept>
 #include <string>
@@ -31,13 +38,62 @@ namespace lander {
 // A configuration or input error: the message names the file, line and key where known.
 class ConfigError : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  // A finished message (file, line and key already in it, or not about one key).
+  explicit ConfigError(const std::string& message) : std::runtime_error(message) {}
+
+  // An invalid value of `key`, a dotted path relative to the struct being validated: the
+  // message is "invalid value for '<key>': <problem>" until validate_nested() prefixes the
+  // key and read_params() adds where it is written (located).
+  static ConfigError invalid(const std::string& key, const std::string& problem);
+
+  const std::string& key() const { return key_; }  ///< "" for a finished message
+  const std::string& problem() const { return problem_; }
+  bool locatable() const { return !key_.empty() && !located_; }
+  // The same error with `prefix` + "." + key (for a nested struct).
+  ConfigError prefixed(const std::string& prefix) const;
+  // The same error located at `where` ("file:line" or "file"), with a `note` after the key.
+  ConfigError located_at(const std::string& where, const std::string& note = "") const;
+
+ private:
+  ConfigError(const std::string& message, std::string key, std::string problem, bool located)
+      : std::runtime_error(message), key_(std::move(key)), problem_(std::move(problem)),
+        located_(located) {}
+  std::string key_, problem_;
+  bool located_{false};
 };
 
-// Throws ConfigError("<what>: <field> <problem>") unless `ok`. For validate() methods.
-inline void require(bool ok, const std::string& field, const std::string& problem) {
-  if (!ok) throw ConfigError("invalid value for '" + field + "': " + problem);
+// Throws ConfigError::invalid(key, problem) unless `ok`. For validate() methods; `key` is
+// the path relative to the struct, as its visit_fields spells it.
+inline void require(bool ok, const std::string& key, const std::string& problem) {
+  if (!ok) throw ConfigError::invalid(key, problem);
 }
+
+// Validates the nested params struct `sub` that visit_fields reads under `key`: an invalid
+// value of one of its keys is reported as "<key>.<its key>".
+template <class P>
+void validate_nested(const std::string& key, const P& sub) {
+  try {
+    sub.validate();
+  } catch (const ConfigError& e) {
+    if (!e.locatable()) throw;
+    throw e.prefixed(key);
+  }
+}
+
+// Same for item `i` of a list of params structs under `key` ("<key>[i].<its key>").
+template <class P>
+void validate_item(const std::string& key, std::size_t i, const P& item) {
+  validate_nested(key + "[" + std::to_string(i) + "]", item);
+}
+
+// Where each key read from a file is written: dotted path ("camera.rate_hz",
+// "vehicle.waypoints[1].t_s", and every mapping and list item on the way) -> 1-based line.
+using KeyLines = std::map<std::string, int>;
+
+// The error located in `file`: at the line of its key, else of the nearest parent written in
+// the file (then noting that the key itself kept its default), else just the file.
+ConfigError locate_config_error(const ConfigError& e, const std::string& file,
+                                const KeyLines& lines);
 
 // "file:line" of a node, 1-based line, or just the file when the node has no mark.
 std::string yaml_where(const YAML::Node& node, const std::string& file);
@@ -46,7 +102,10 @@ std::string yaml_where(const YAML::Node& node, const std::string& file);
 class YamlReader {
  public:
   // `prefix` is the dotted path of this mapping inside the file, for messages ("camera.").
-  YamlReader(const YAML::Node& node, std::string file, std::string prefix = "");
+  // Records the line of every key it reads into `lines` when given. Throws ConfigError with
+  // file:line for a duplicate key or a key that is not a plain string.
+  YamlReader(const YAML::Node& node, std::string file, std::string prefix = "",
+             KeyLines* lines = nullptr);
 
   // Reads `key` into `field` if present. For floating fields, the YAML value is multiplied
   // by `scale` (e.g. 1e-3 for a *_ms key stored in seconds).
@@ -65,7 +124,7 @@ class YamlReader {
     YAML::Node child = take(key);
     if (!child) return;
     if (!child.IsMap()) fail(child, key, "expected a mapping");
-    YamlReader r(child, file_, prefix_ + key + ".");
+    YamlReader r(child, file_, prefix_ + key + ".", lines_);
     visit_fields(r, sub);
     r.finish();
   }
@@ -78,9 +137,11 @@ class YamlReader {
     if (!child.IsSequence()) fail(child, key, "expected a list");
     items.clear();
     for (std::size_t i = 0; i < child.size(); ++i) {
-      if (!child[i].IsMap()) fail(child[i], key, "list items must be mappings");
+      const std::string item_key = std::string(key) + "[" + std::to_string(i) + "]";
+      if (!child[i].IsMap()) fail(child[i], item_key, "list items must be mappings");
+      record(prefix_ + item_key, child[i]);
       P item;
-      YamlReader r(child[i], file_, prefix_ + key + "[" + std::to_string(i) + "].");
+      YamlReader r(child[i], file_, prefix_ + item_key + ".", lines_);
       visit_fields(r, item);
       r.finish();
       items.push_back(item);
@@ -98,6 +159,7 @@ class YamlReader {
 
  private:
   YAML::Node take(const char* key);  // marks the key consumed; null node if absent
+  void record(const std::string& path, const YAML::Node& at);  // path -> line in lines_
   template <class T>
   T scalar(const YAML::Node& n, const char* key, const char* type_name) const;
 
@@ -105,6 +167,7 @@ class YamlReader {
   std::string file_;
   std::string prefix_;
   std::set<std::string> consumed_;
+  KeyLines* lines_ = nullptr;
 };
 
 // Writes a params struct into a YAML node with the same keys the reader accepts.
@@ -145,19 +208,29 @@ class YamlWriter {
   YAML::Node node_;
 };
 
-// Loads a YAML file; throws ConfigError naming the file if missing or malformed.
+// Loads a YAML file holding one document; throws ConfigError naming the file (and line) if
+// it is missing, malformed, empty (nothing but comments or a null document) or holds more
+// than one document.
 YAML::Node load_yaml_file(const std::string& path);
 
-// Applies `node` on top of `p`'s defaults, rejects unknown keys, then calls p.validate().
+// Applies `node` on top of `p`'s defaults, rejects unknown and duplicate keys, then calls
+// p.validate(); its errors are located in `file` (locate_config_error). A null node applies
+// nothing (the defaults are validated).
 template <class P>
 void read_params(const YAML::Node& node, const std::string& file, P& p) {
+  KeyLines lines;
   if (node && !node.IsNull()) {
     if (!node.IsMap()) throw ConfigError(yaml_where(node, file) + ": expected a mapping");
-    YamlReader r(node, file);
+    YamlReader r(node, file, "", &lines);
     visit_fields(r, p);
     r.finish();
   }
-  p.validate();
+  try {
+    p.validate();
+  } catch (const ConfigError& e) {
+    if (!e.locatable()) throw;
+    throw locate_config_error(e, file, lines);
+  }
 }
 
 // The resolved params as a YAML node (every key, with the values in force).

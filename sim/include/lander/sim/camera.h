@@ -17,6 +17,14 @@
 
 namespace lander::sim {
 
+// Largest image side (px) the simulator renders: the offscreen framebuffer MuJoCo allocates
+// for the camera must fit the GL implementation's limits (GL_MAX_RENDERBUFFER_SIZE and
+// GL_MAX_TEXTURE_SIZE are 16384 on Mesa llvmpipe, 16384-32768 on GPUs) and memory; checked
+// by validate() so a bad scenario is refused before any work instead of failing in MuJoCo.
+constexpr int kMaxRenderSidePx = 8192;
+// Smallest camera image side (px) the simulator renders.
+constexpr int kMinCameraSidePx = 16;
+
 struct CameraParams {
   CameraModel intrinsics;        ///< K and distortion (OpenCV convention)
   double rate_hz{30.0};          ///< frame rate (Hz)
@@ -24,13 +32,18 @@ struct CameraParams {
   int blur_samples{1};           ///< renders averaged over the exposure (1 = no blur)
   double read_noise_dn{0.0};     ///< Gaussian read noise std (8-bit grey levels)
   void validate() const {
-    intrinsics.validate();
-    require(rate_hz > 0 && rate_hz <= 240, "camera.rate_hz", "must be in (0, 240]");
-    require(exposure_s >= 0 && exposure_s < 1.0 / rate_hz, "camera.exposure_ms",
+    validate_nested("intrinsics", intrinsics);
+    const std::string sides = "must be in [" + std::to_string(kMinCameraSidePx) + ", " +
+                              std::to_string(kMaxRenderSidePx) + "] (offscreen render limit)";
+    require(intrinsics.width_px >= kMinCameraSidePx && intrinsics.width_px <= kMaxRenderSidePx,
+            "intrinsics.width_px", sides);
+    require(intrinsics.height_px >= kMinCameraSidePx && intrinsics.height_px <= kMaxRenderSidePx,
+            "intrinsics.height_px", sides);
+    require(rate_hz > 0 && rate_hz <= 240, "rate_hz", "must be in (0, 240]");
+    require(exposure_s >= 0 && exposure_s < 1.0 / rate_hz, "exposure_ms",
             "must be >= 0 and shorter than the frame period");
-    require(blur_samples >= 1 && blur_samples <= 64, "camera.blur_samples", "must be in [1, 64]");
-    require(read_noise_dn >= 0 && read_noise_dn <= 50, "camera.read_noise_dn",
-            "must be in [0, 50]");
+    require(blur_samples >= 1 && blur_samples <= 64, "blur_samples", "must be in [1, 64]");
+    require(read_noise_dn >= 0 && read_noise_dn <= 50, "read_noise_dn", "must be in [0, 50]");
   }
 };
 

@@ -2,7 +2,8 @@
 // scheduler (see closed_loop.cpp). run_scenario() calls it for vehicle.control: closed_loop.
 #pragma once
 
-#include "lander/sim/json.h"
+#include <nlohmann/json.hpp>
+
 #include "lander/sim/renderer.h"
 #include "lander/sim/run.h"
 #include "lander/sim/scenario.h"
@@ -30,6 +31,6 @@ inline double camera_exposure_end(const CameraParams& p, double t_start_s) {
 // Runs the closed loop; fills `summary` (landed, outcome, touchdown figures, transitions,
 // vision counts, altitude-fusion errors) and writes trace.csv and the videos into o.out_dir.
 LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
-                           Renderer& renderer, Json& summary);
+                           Renderer& renderer, nlohmann::ordered_json& summary);
 
 }  // namespace lander::sim

@@ -17,8 +17,9 @@ struct RenderParams {
   int msaa_samples{0};          ///< multisample anti-aliasing samples (0 = off; see README)
   bool shadows{false};          ///< shadow mapping (costly on llvmpipe; see README)
   void validate() const {
-    parse_gl_backend(backend);  // throws naming the value
-    require(msaa_samples >= 0 && msaa_samples <= 16, "render.msaa_samples", "must be in [0, 16]");
+    require(backend == "auto" || backend == "egl" || backend == "osmesa", "backend",
+            "must be auto, egl or osmesa (got '" + backend + "')");
+    require(msaa_samples >= 0 && msaa_samples <= 16, "msaa_samples", "must be in [0, 16]");
   }
 };
 

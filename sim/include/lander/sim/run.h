@@ -6,12 +6,19 @@
 
 #include <string>
 
-#include "lander/sim/json.h"
+#include <nlohmann/json.hpp>
+
 #include "lander/sim/scenario.h"
 
 namespace lander::sim {
 
-constexpr int kSummarySchemaVersion = 1;
+// summary.json "outcome": landed | timeout | touched_ground | tipped_over (the vehicle fell
+// over on the ground or platform) | diverged (NaN or runaway physics state, or a MuJoCo
+// instability warning; outputs complete to that time) | error (an exception; trace.csv and
+// the videos are discarded) | scripted_flight_complete (kinematic runs). "crashed" is left to
+// the campaign runner for a simulator process that died. Version 2: crashed -> tipped_over,
+// diverged, rejected_samples.
+constexpr int kSummarySchemaVersion = 2;
 
 struct RunOptions {
   std::string out_dir;         ///< created if missing; files inside are overwritten
@@ -25,6 +32,8 @@ void preflight(const Scenario& s, const RunOptions& o);
 
 // Runs the scenario. Inputs are checked first (preflight); once outputs are being written,
 // a failure still leaves a summary.json whose outcome says what went wrong, and rethrows.
-Json run_scenario(const Scenario& s, const RunOptions& o);
+// Every file is written under a temporary name and renamed when complete (output_files.h);
+// a failed write throws OutputError naming the file.
+nlohmann::ordered_json run_scenario(const Scenario& s, const RunOptions& o);
 
 }  // namespace lander::sim

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -14,6 +15,7 @@
 #include "lander/estimator/altitude_fusion.h"
 #include "lander/estimator/navigation.h"
 #include "lander/estimator/params_io.h"
+#include "lander/estimator/sample_screen.h"
 #include "lander/estimator/vision_params.h"
 #include "lander/sim/camera.h"
 #include "lander/sim/ground_effect.h"
@@ -48,8 +50,8 @@ struct VehicleModelParams {
   RotorParams rotor;
   GroundEffectParams ground_effect;
   void validate() const {
-    rotor.validate();
-    ground_effect.validate();
+    validate_nested("rotor", rotor);
+    validate_nested("ground_effect", ground_effect);
   }
 };
 
@@ -82,14 +84,16 @@ struct EstimatorSetup {
   VisionParams vision;
   AltitudeFusionParams altitude;
   NavigationParams navigation;
+  SampleLimits sample_limits;      ///< plausibility limits of sensor samples and vision results
   double vision_latency_s{0.030};  ///< processing latency of a frame (s); YAML vision_latency_ms
   bool measured_latency{false};    ///< use the measured processing time instead (not
                                    ///< deterministic: depends on the machine's load)
   void validate() const {
-    vision.validate();
-    altitude.validate();
-    navigation.validate();
-    require(vision_latency_s >= 0 && vision_latency_s < 1.0, "estimator.vision_latency_ms",
+    validate_nested("vision", vision);
+    validate_nested("altitude", altitude);
+    validate_nested("navigation", navigation);
+    validate_nested("sample_limits", sample_limits);
+    require(vision_latency_s >= 0 && vision_latency_s < 1.0, "vision_latency_ms",
             "must be in [0, 1000) ms");
   }
 };
@@ -99,12 +103,14 @@ void visit_fields(V& v, EstimatorSetup& p) {
   v.nested("vision", p.vision);
   v.nested("altitude", p.altitude);
   v.nested("navigation", p.navigation);
+  v.nested("sample_limits", p.sample_limits);
   v("vision_latency_ms", p.vision_latency_s, 1e-3);
   v("measured_latency", p.measured_latency);
 }
 
-// Injected faults (seed 004's robustness tests; benchmarks and scenarios). Times < 0: off.
+// Injected faults. Times are sim times (s); a time < 0 turns the fault off.
 struct FaultParams {
+  // Sensor faults within their models' physics (seed 004's robustness tests).
   double gps_step_t_s{-1.0};                     ///< start of a GPS position step (s)
   double gps_step_duration_s{2.0};               ///< its duration (s)
   Eigen::Vector3d gps_step_W_m{0.0, 0.0, 5.0};   ///< the step (m)
@@ -113,13 +119,54 @@ struct FaultParams {
   double vision_outlier_t_s{-1.0};               ///< first vision frame replaced by an outlier (s)
   int vision_outlier_frames{3};                  ///< consecutive outlier frames
   double vision_outlier_m{1.0};                  ///< outlier: platform pose shifted along z_C (m)
+
+  // Corrupted samples (test hooks of the flight software's sample screen): every sample
+  // delivered in [t, t + duration) is replaced by a NaN or absurd one on its way to the flight
+  // software (the simulator's sensor metrics see the true sample). The flight software must
+  // reject and count them (summary.json rejected_samples) and fly on.
+  double nan_imu_t_s{-1.0};                ///< IMU: gyro and accelerometer NaN (s)
+  double nan_imu_duration_s{0.1};          ///< (s)
+  double nan_baro_t_s{-1.0};               ///< barometer: pressure NaN (s)
+  double nan_baro_duration_s{0.5};         ///< (s)
+  double absurd_gps_t_s{-1.0};             ///< GPS: valid fixes 1e9 m away at 1e6 m/s (s)
+  double absurd_gps_duration_s{1.0};       ///< (s)
+  double nan_ultrasonic_t_s{-1.0};         ///< ultrasonic: range NaN (s)
+  double nan_ultrasonic_duration_s{0.5};   ///< (s)
+  double nan_magnetometer_t_s{-1.0};       ///< magnetometer: field NaN (s)
+  double nan_magnetometer_duration_s{0.5}; ///< (s)
+  double nan_vision_t_s{-1.0};             ///< vision: results claim a keyframe detection with
+                                           ///< a NaN pose and covariance (by exposure mid-time)
+  double nan_vision_duration_s{0.5};       ///< (s)
+
+  // Broken simulator processes (test hooks of the campaign runner's handling of runs that
+  // diverge, crash or hang; never for real scenarios).
+  double diverge_t_s{-1.0};  ///< a NaN is written into the vehicle's physics state at this
+                             ///< time: the run ends with outcome `diverged` (exit code 1)
+  double abort_t_s{-1.0};    ///< the process calls std::abort() at this time: a crash by
+                             ///< signal (SIGABRT), no summary.json
+  double hang_t_s{-1.0};     ///< the process stops making progress at this time (sleeps in a
+                             ///< loop forever): for wall-clock timeouts
+
   void validate() const {
-    require(gps_step_duration_s >= 0, "faults.gps_step_duration_s", "must be >= 0");
-    require(ultrasonic_garbage_duration_s >= 0, "faults.ultrasonic_garbage_duration_s",
+    require(gps_step_duration_s >= 0, "gps_step_duration_s", "must be >= 0");
+    require(ultrasonic_garbage_duration_s >= 0, "ultrasonic_garbage_duration_s",
             "must be >= 0");
-    require(vision_outlier_frames >= 0, "faults.vision_outlier_frames", "must be >= 0");
+    require(vision_outlier_frames >= 0, "vision_outlier_frames", "must be >= 0");
+    for (auto [key, v] : {std::pair<const char*, double>{"nan_imu_duration_s", nan_imu_duration_s},
+                          {"nan_baro_duration_s", nan_baro_duration_s},
+                          {"absurd_gps_duration_s", absurd_gps_duration_s},
+                          {"nan_ultrasonic_duration_s", nan_ultrasonic_duration_s},
+                          {"nan_magnetometer_duration_s", nan_magnetometer_duration_s},
+                          {"nan_vision_duration_s", nan_vision_duration_s}}) {
+      require(v >= 0, key, "must be >= 0");
+    }
   }
 };
+
+// True when t_s lies in the fault window [start_s, start_s + duration_s) (off if start < 0).
+inline bool fault_active(double t_s, double start_s, double duration_s) {
+  return start_s >= 0 && t_s >= start_s && t_s < start_s + duration_s;
+}
 
 template <class V>
 void visit_fields(V& v, FaultParams& p) {
@@ -131,6 +178,21 @@ void visit_fields(V& v, FaultParams& p) {
   v("vision_outlier_t_s", p.vision_outlier_t_s);
   v("vision_outlier_frames", p.vision_outlier_frames);
   v("vision_outlier_m", p.vision_outlier_m);
+  v("nan_imu_t_s", p.nan_imu_t_s);
+  v("nan_imu_duration_s", p.nan_imu_duration_s);
+  v("nan_baro_t_s", p.nan_baro_t_s);
+  v("nan_baro_duration_s", p.nan_baro_duration_s);
+  v("absurd_gps_t_s", p.absurd_gps_t_s);
+  v("absurd_gps_duration_s", p.absurd_gps_duration_s);
+  v("nan_ultrasonic_t_s", p.nan_ultrasonic_t_s);
+  v("nan_ultrasonic_duration_s", p.nan_ultrasonic_duration_s);
+  v("nan_magnetometer_t_s", p.nan_magnetometer_t_s);
+  v("nan_magnetometer_duration_s", p.nan_magnetometer_duration_s);
+  v("nan_vision_t_s", p.nan_vision_t_s);
+  v("nan_vision_duration_s", p.nan_vision_duration_s);
+  v("diverge_t_s", p.diverge_t_s);
+  v("abort_t_s", p.abort_t_s);
+  v("hang_t_s", p.hang_t_s);
 }
 
 struct VideoParams {
@@ -140,12 +202,14 @@ struct VideoParams {
   int camera_scale_div{2};        ///< camera.mp4 is the camera image downscaled by this
   bool overlays{true};            ///< draw fitted ellipses, ring ids, mode, altitude
   void validate() const {
-    require(chase_width_px >= 64 && chase_width_px <= 1280, "video.chase_width_px",
-            "must be in [64, 1280]");
-    require(chase_height_px >= 64 && chase_height_px <= 720, "video.chase_height_px",
-            "must be in [64, 720]");
-    require(chase_distance_m > 0, "video.chase_distance_m", "must be > 0");
-    require(camera_scale_div >= 1 && camera_scale_div <= 8, "video.camera_scale_div",
+    // H.264 (yuv420p) needs even frame sizes; the chase view renders into the offscreen
+    // buffer, which the camera (at most kMaxRenderSidePx) also uses.
+    require(chase_width_px >= 64 && chase_width_px <= 1280 && chase_width_px % 2 == 0,
+            "chase_width_px", "must be even and in [64, 1280]");
+    require(chase_height_px >= 64 && chase_height_px <= 720 && chase_height_px % 2 == 0,
+            "chase_height_px", "must be even and in [64, 720]");
+    require(chase_distance_m > 0, "chase_distance_m", "must be > 0");
+    require(camera_scale_div >= 1 && camera_scale_div <= 8, "camera_scale_div",
             "must be in [1, 8]");
   }
 };
@@ -204,6 +268,9 @@ void visit_fields(V& v, Scenario& p) {
   v.nested("video", p.video);
   v("trace_rate_hz", p.trace_rate_hz);
 }
+
+// Smallest side of camera.mp4 (px) that the video writer accepts.
+constexpr int kMinVideoSidePx = 16;
 
 // Derives the seed of one random stream ("imu", "camera", ...) from the scenario seed.
 std::uint64_t derive_seed(std::uint64_t scenario_seed, const std::string& stream);

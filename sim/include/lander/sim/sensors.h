@@ -88,7 +88,7 @@ struct ImuParams {
 
   void validate() const {
     require(rate_hz > 0, "rate_hz", "must be > 0");
-    require(latency_s >= 0, "latency_s", "must be >= 0");
+    require(latency_s >= 0, "latency_ms", "must be >= 0");
     require(gravity_mps2 > 0, "gravity_mps2", "must be > 0");
     require(gyro_noise_std_radps >= 0, "gyro_noise_std_radps", "must be >= 0");
     require(accel_noise_std_mps2 >= 0, "accel_noise_std_mps2", "must be >= 0");
@@ -145,7 +145,7 @@ struct BaroParams {
 
   void validate() const {
     require(rate_hz > 0, "rate_hz", "must be > 0");
-    require(latency_s >= 0, "latency_s", "must be >= 0");
+    require(latency_s >= 0, "latency_ms", "must be >= 0");
     require(origin_msl_m > -400 && origin_msl_m < 10000, "origin_msl_m",
             "must be within the ISA troposphere (-400 .. 10000 m)");
     require(bias_std_m >= 0, "bias_std_m", "must be >= 0");
@@ -209,7 +209,7 @@ struct GpsParams {
 
   void validate() const {
     require(rate_hz > 0 && rate_hz <= 50, "rate_hz", "must be in (0, 50]");
-    require(latency_s >= 0, "latency_s", "must be >= 0");
+    require(latency_s >= 0, "latency_ms", "must be >= 0");
     require(horizontal_std_m >= 0, "horizontal_std_m", "must be >= 0");
     require(vertical_std_m >= 0, "vertical_std_m", "must be >= 0");
     require(correlation_time_s > 0, "correlation_time_s", "must be > 0");
@@ -279,7 +279,7 @@ struct UltrasonicParams {
 
   void validate() const {
     require(rate_hz > 0, "rate_hz", "must be > 0");
-    require(latency_s >= 0, "latency_s", "must be >= 0");
+    require(latency_s >= 0, "latency_ms", "must be >= 0");
     require(min_range_m >= 0, "min_range_m", "must be >= 0");
     require(max_range_m > min_range_m, "max_range_m", "must be > min_range_m");
     require(noise_std_m >= 0, "noise_std_m", "must be >= 0");
@@ -333,7 +333,7 @@ struct MagnetometerParams {
   double bias_std_uT{0.5};                            ///< residual hard-iron bias after calibration, std (uT)
   void validate() const {
     require(rate_hz > 0, "rate_hz", "must be > 0");
-    require(latency_s >= 0, "latency_s", "must be >= 0");
+    require(latency_s >= 0, "latency_ms", "must be >= 0");
     require(field_W_uT.head<2>().norm() > 1.0, "field_W_uT", "needs a horizontal component (uT)");
     require(noise_std_uT >= 0, "noise_std_uT", "must be >= 0");
     require(bias_std_uT >= 0, "bias_std_uT", "must be >= 0");

@@ -18,7 +18,7 @@ class VideoWriter {
   // Starts ffmpeg writing `path` at `fps`; frames must be width x height CV_8UC3. Throws
   // std::runtime_error if ffmpeg is not on PATH or cannot start.
   VideoWriter(const std::string& path, int width, int height, double fps);
-  ~VideoWriter();  // closes (finishes the file)
+  ~VideoWriter();  // without close(): stops ffmpeg and removes the partial file
   VideoWriter(const VideoWriter&) = delete;
   VideoWriter& operator=(const VideoWriter&) = delete;
 

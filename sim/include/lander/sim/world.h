@@ -14,6 +14,7 @@
 #include "lander/estimator/params_io.h"
 #include "lander/estimator/target.h"
 #include "lander/estimator/types.h"
+#include "lander/sim/camera.h"
 
 namespace lander::sim {
 
@@ -23,9 +24,9 @@ struct WorldParams {
   double physics_dt_s{0.001};      ///< physics step (s); 1 kHz default
   std::uint64_t ground_seed{7};    ///< seed of the procedural ground texture
   void validate() const {
-    require(!model_path.empty(), "world.model", "must name an MJCF file");
-    require(!target_path.empty(), "world.target", "must name a target YAML");
-    require(physics_dt_s > 0 && physics_dt_s <= 0.005, "physics.dt_ms", "must be in (0, 5] ms");
+    require(!model_path.empty(), "model", "must name an MJCF file");
+    require(!target_path.empty(), "target", "must name a target YAML");
+    require(physics_dt_s > 0 && physics_dt_s <= 0.005, "dt_ms", "must be in (0, 5] ms");
   }
 };
 
@@ -65,6 +66,8 @@ class World {
   int platform_site() const { return platform_site_; }
   int rotor_site(int k) const { return rotor_sites_[k]; }
   int cart_body() const { return cart_body_; }
+  int vehicle_qpos_adr() const { return vehicle_qpos_; }  ///< first qpos of the free joint
+  int vehicle_dof_adr() const { return vehicle_qvel_; }   ///< first dof of the free joint
 
   // Truth (never handed to the estimator or controller).
   Eigen::Isometry3d X_WB() const;  ///< vehicle body pose
@@ -83,6 +86,12 @@ class World {
   Eigen::Vector3d cart_qd() const;  ///< rates
   int cart_dof(int i) const { return cart_dof_[i]; }
   void forward();
+  // True when every position and velocity of the physics state is finite.
+  bool state_finite() const;
+
+  // Grows MuJoCo's offscreen buffer to hold a width x height render (call before the
+  // renderer is created). Throws ConfigError beyond kMaxRenderSidePx (camera.h).
+  void reserve_offscreen(int width_px, int height_px);
 
   // Fills a model texture with a BGR image (same size as the placeholder). Call before the
   // renderer is created (textures are uploaded when the GL context is made).

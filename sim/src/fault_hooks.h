@@ -1,0 +1,56 @@
+// Test hooks of FaultParams shared by the scripted and closed-loop runs (private to sim/):
+// corrupted samples for the flight software's sample screen, and broken processes (abort,
+// hang) for the campaign runner's tests.
+#pragma once
+
+#include <chrono>
+#include <cstdlib>
+#include <limits>
+#include <string>
+#include <thread>
+
+#include "lander/estimator/state.h"
+#include "lander/estimator/types.h"
+#include "lander/sim/scenario.h"
+
+namespace lander::sim {
+
+// faults.abort_t_s: the process dies by SIGABRT; faults.hang_t_s: it sleeps forever.
+inline void run_process_fault_hooks(const FaultParams& f, double t_s) {
+  if (f.abort_t_s >= 0 && t_s >= f.abort_t_s) std::abort();
+  if (f.hang_t_s >= 0 && t_s >= f.hang_t_s) {
+    for (;;) std::this_thread::sleep_for(std::chrono::seconds(1));
+  }
+}
+
+constexpr double kFaultNaN = std::numeric_limits<double>::quiet_NaN();
+
+inline void corrupt_sample(ImuSample& s) {
+  s.gyro_B_radps.setConstant(kFaultNaN);
+  s.accel_B_mps2.setConstant(kFaultNaN);
+}
+inline void corrupt_sample(BaroSample& s) { s.pressure_pa = kFaultNaN; }
+// A fix that claims to be valid, a million kilometres away at a thousand kilometres a second.
+inline void corrupt_sample(GpsSample& s) {
+  s.valid = true;
+  s.p_W_m = Eigen::Vector3d(1e9, -1e9, 1e9);
+  s.v_W_mps = Eigen::Vector3d(1e6, 1e6, -1e6);
+}
+inline void corrupt_sample(UltrasonicSample& s) { s.range_m = kFaultNaN; }
+inline void corrupt_sample(MagSample& s) { s.field_B_uT.setConstant(kFaultNaN); }
+// A vision result that claims a keyframe detection with a NaN pose and covariance.
+inline void corrupt_observation(PlatformObservation& obs) {
+  obs.detected = true;
+  obs.keyframe = true;
+  obs.X_CP.translation().setConstant(kFaultNaN);
+  obs.cov.setConstant(kFaultNaN);
+}
+
+// MuJoCo's warnings of a diverging simulation (mj_checkPos / Vel / Acc in mj_step: "Nan, Inf
+// or huge value in QACC at DOF 3. The simulation is unstable.").
+inline bool is_instability_warning(const std::string& what) {
+  return what.find("unstable") != std::string::npos ||
+         what.find("Nan, Inf or huge value") != std::string::npos;
+}
+
+}  // namespace lander::sim
