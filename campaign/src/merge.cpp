@@ -12,7 +12,7 @@
 
 #include "lander/campaign/stats.h"
 #include "lander/estimator/params_io.h"
-#include "lander/sim/json.h"
+#include "lander/sim/output_files.h"
 #include "lander/sim/process.h"
 #include "yaml_json.h"
 
@@ -103,14 +103,6 @@ json group_stats(const std::vector<const Row*>& rows) {
 }
 
 std::string cell(double v) { return std::isfinite(v) ? fmt::format("{}", v) : ""; }
-
-// RFC 4180: a field with a comma, quote or line break is quoted, quotes doubled.
-std::string csv_field(const std::string& s) {
-  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
-  std::string q = "\"";
-  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
-  return q + "\"";
-}
 
 // Input columns: each sampled key flattened ("key" or "key[i]").
 std::vector<std::string> input_columns(const json& keys, const std::vector<Row>& rows) {
@@ -273,23 +265,25 @@ MergeResult merge_campaign(const std::string& dir, const MergeOptions& o) {
   }
   res.complete = static_cast<int>(rows.size());
 
-  // campaign.csv
+  // campaign.csv (the project's one CSV writer; numbers in their shortest exact form)
   const json keys = plan.value("dispersion_keys", json::array());
   const std::vector<std::string> cols = input_columns(keys, rows);
-  std::ostringstream csv;
-  csv << "id,scenario,seed,outcome,landed,touchdown_offset_m";
-  for (const std::string& c : cols) csv << "," << csv_field(c);
-  csv << ",touchdown_x_P_m,touchdown_y_P_m,touchdown_rel_speed_mps,touchdown_tilt_deg,"
-         "time_to_land_s,wall_s,status,detail\n";
-  for (const Row& r : rows) {
-    csv << csv_field(r.id) << "," << csv_field(r.scenario) << "," << r.seed << ","
-        << csv_field(r.outcome) << "," << (r.landed ? 1 : 0) << "," << cell(r.offset);
-    for (const std::string& c : cols) csv << "," << csv_field(json_scalar_text(input_value(r, c)));
-    csv << "," << cell(r.x_P) << "," << cell(r.y_P) << "," << cell(r.speed) << "," << cell(r.tilt)
-        << "," << cell(r.time) << "," << cell(r.wall) << "," << csv_field(r.status) << ","
-        << csv_field(r.detail) << "\n";
+  std::vector<std::string> header = {"id", "scenario", "seed", "outcome", "landed", "touchdown_offset_m"};
+  header.insert(header.end(), cols.begin(), cols.end());
+  for (const char* c : {"touchdown_x_P_m", "touchdown_y_P_m", "touchdown_rel_speed_mps", "touchdown_tilt_deg",
+                        "time_to_land_s", "wall_s", "status", "detail"}) {
+    header.push_back(c);
   }
-  sim::write_text_file(dir + "/campaign.csv", csv.str());
+  sim::CsvWriter csv(dir + "/campaign.csv", header);
+  for (const Row& r : rows) {
+    csv.text(r.id).text(r.scenario).text(std::to_string(r.seed)).text(r.outcome).integer(r.landed ? 1 : 0)
+        .text(cell(r.offset));
+    for (const std::string& c : cols) csv.text(json_scalar_text(input_value(r, c)));
+    csv.text(cell(r.x_P)).text(cell(r.y_P)).text(cell(r.speed)).text(cell(r.tilt)).text(cell(r.time))
+        .text(cell(r.wall)).text(r.status).text(r.detail);
+    csv.end_row();
+  }
+  csv.commit();
 
   // campaign.json
   json j;
@@ -343,7 +337,7 @@ MergeResult merge_campaign(const std::string& dir, const MergeOptions& o) {
   j["worst_runs"] = worst;
   j["sensitivity"] = sensitivity(cols, rows);
   res.campaign = j;
-  sim::write_text_file(dir + "/campaign.json", j.dump(1) + "\n");
+  sim::write_json_file(dir + "/campaign.json", j);
 
   if (o.html) {
     const std::string script = std::string(LANDER_TOOLS_DIR) + "/campaign_report.py";

@@ -13,7 +13,7 @@
 #include "lander/campaign/csv.h"
 #include "lander/campaign/regress.h"
 #include "lander/estimator/params_io.h"
-#include "lander/sim/json.h"
+#include "lander/sim/output_files.h"
 
 namespace lander::campaign {
 
@@ -346,11 +346,11 @@ AcceptResult accept_baseline(const std::string& current_dir, const std::string& 
   if (had_thresholds) Thresholds::load(res.thresholds_path);  // a broken file is not kept silently
   fs::create_directories(baseline_dir);
   for (const auto& [name, text] : files) {
-    sim::write_text_file(baseline_dir + "/" + name, text);
+    sim::write_file_atomic(baseline_dir + "/" + name, text);
     res.copied.push_back(baseline_dir + "/" + name);
   }
   if (!had_thresholds) {
-    sim::write_text_file(res.thresholds_path, Thresholds::default_yaml());
+    sim::write_file_atomic(res.thresholds_path, Thresholds::default_yaml());
     res.thresholds_written = true;
   }
   return res;

@@ -18,7 +18,7 @@
 #include <fmt/format.h>
 
 #include "lander/estimator/params_io.h"
-#include "lander/sim/json.h"
+#include "lander/sim/output_files.h"
 #include "lander/sim/process.h"
 #include "yaml_json.h"
 
@@ -195,8 +195,8 @@ void write_plan(const Campaign& c, const std::vector<PlannedRun>& plan, const st
     }
     return;
   }
-  sim::write_text_file(path, j.dump(1) + "\n");
-  sim::write_text_file(out_dir + "/campaign.yaml", read_file(c.file));
+  sim::write_json_file(path, j);
+  sim::write_file_atomic(out_dir + "/campaign.yaml", read_file(c.file));
 }
 
 RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan,
@@ -296,7 +296,7 @@ RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan
       a.run = r;
       a.partial = runs_dir + "/" + r->id + ".partial-" + std::to_string(getpid());
       fs::create_directories(a.partial);
-      sim::write_text_file(a.partial + "/scenario.input.yaml", r->scenario_yaml);
+      sim::write_file_atomic(a.partial + "/scenario.input.yaml", r->scenario_yaml);
       sim::SpawnOptions so;
       so.stdout_path = a.partial + "/stdout.log";
       so.stderr_path = a.partial + "/stderr.log";
@@ -326,7 +326,7 @@ RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan
       }
       any = true;
       const json rec = finish_record(*it, *st, el);
-      sim::write_text_file(it->partial + "/run.json", rec.dump(1) + "\n");
+      sim::write_json_file(it->partial + "/run.json", rec);
       const std::string dir = runs_dir + "/" + it->run->id;
       std::error_code ec;
       fs::rename(it->partial, dir, ec);

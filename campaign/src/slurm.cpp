@@ -8,7 +8,7 @@
 #include "lander/campaign/merge.h"
 #include "lander/campaign/runner.h"
 #include "lander/estimator/params_io.h"
-#include "lander/sim/json.h"
+#include "lander/sim/output_files.h"
 #include "lander/sim/process.h"
 
 namespace lander::campaign {
@@ -56,14 +56,14 @@ SlurmFiles write_slurm_files(const Campaign& c, const std::vector<PlannedRun>& p
   f.sbatch_path = sdir + "/campaign.sbatch";
   f.joblist_path = sdir + "/joblist.txt";
   f.array_tasks = tasks;
-  sim::write_text_file(f.sbatch_path, s.str());
+  sim::write_file_atomic(f.sbatch_path, s.str());
   fs::permissions(f.sbatch_path, fs::perms::owner_exec | fs::perms::group_exec, fs::perm_options::add);
   std::ostringstream jl;
   for (const PlannedRun& r : plan) {
     jl << shell_quote(lander) << " campaign run " << shell_quote(campaign) << " --out "
        << shell_quote(dir) << " --only " << shell_quote(r.id) << " --jobs 1 --no-report\n";
   }
-  sim::write_text_file(f.joblist_path, jl.str());
+  sim::write_file_atomic(f.joblist_path, jl.str());
   return f;
 }
 

@@ -1,5 +1,7 @@
 #include "lander/campaign/stats.h"
 
+#include "lander/sim/stats.h"
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -53,12 +55,8 @@ Interval wilson95(int k, int n) {
 }
 
 double quantile(std::vector<double> x, double q) {
-  if (x.empty()) return NAN;
   std::sort(x.begin(), x.end());
-  const double h = (static_cast<double>(x.size()) - 1) * q;
-  const std::size_t lo = static_cast<std::size_t>(std::floor(h));
-  const std::size_t hi = std::min(x.size() - 1, lo + 1);
-  return x[lo] + (h - static_cast<double>(lo)) * (x[hi] - x[lo]);
+  return sim::quantile_sorted(x, q);  // the project's one quantile (type 7)
 }
 
 double mean(const std::vector<double>& x) {

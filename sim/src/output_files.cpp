@@ -1,5 +1,7 @@
 #include "lander/sim/output_files.h"
 
+#include <unistd.h>
+
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -11,9 +13,15 @@ namespace lander::sim {
 
 namespace {
 std::string errno_text() { return errno ? std::string(": ") + std::strerror(errno) : ""; }
+
+// "<path>.tmp.<pid>": processes writing the same file at once (campaign shards writing
+// plan.json) never share a temporary file; the last rename wins with a whole file.
+std::string temporary_name(const std::string& path) {
+  return path + ".tmp." + std::to_string(getpid());
+}
 }  // namespace
 
-AtomicFile::AtomicFile(std::string path) : path_(std::move(path)), tmp_(path_ + ".tmp") {
+AtomicFile::AtomicFile(std::string path) : path_(std::move(path)), tmp_(temporary_name(path_)) {
   errno = 0;
   out_.open(tmp_, std::ios::binary | std::ios::trunc);
   if (!out_) throw OutputError(path_ + ": cannot create file" + errno_text());

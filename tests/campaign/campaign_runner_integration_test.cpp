@@ -193,3 +193,34 @@ TEST(CampaignRunnerFailures, BadInputExitsTwoBeforeAnyRun) {
 
 }  // namespace
 }  // namespace lander::test
+
+namespace lander::test {
+namespace {
+
+// A run killed by a signal (SIGABRT), one whose simulation goes non-finite, and one that stops
+// making progress: each is recorded with its own status and the campaign goes on; the normal
+// run is unaffected and the exit code says simulator failures happened.
+TEST(CampaignRunnerFailures, CrashDivergenceAndHangAreRecorded) {
+  const std::string d = temp_dir("lander_campaign_fail");
+  const std::string c = std::string(LANDER_TESTS_DIR) + "/campaign/data/failing_campaign.yaml";
+  const Result r = lander({"campaign", "run", c, "--out", d, "--jobs", "2", "--timeout-s", "40", "--no-report"});
+  EXPECT_EQ(r.code, 1) << r.output;
+  auto status = [&](const std::string& id) {
+    return read_json(d + "/runs/" + id + "/run.json").at("status").get<std::string>();
+  };
+  EXPECT_EQ(status("normal-0000"), "ok");
+  EXPECT_EQ(status("aborts-0000"), "crashed");
+  EXPECT_EQ(status("diverges-0000"), "diverged");
+  EXPECT_EQ(status("hangs-0000"), "hung");
+  const json crashed = read_json(d + "/runs/aborts-0000/run.json");
+  EXPECT_NE(crashed.at("detail").get<std::string>().find("signal 6"), std::string::npos) << crashed.dump();
+  const Result m = lander({"campaign", "report", d, "--no-html"});
+  EXPECT_EQ(m.code, 1) << m.output;
+  const json j = read_json(d + "/campaign.json");
+  EXPECT_EQ(j.at("overall").at("simulator_failures").get<int>(), 3);
+  EXPECT_EQ(j.at("overall").at("landing_failures").get<int>(), 1);  // the normal 3 s run: timeout
+  EXPECT_EQ(j.at("overall").at("landing_rate").at("of_runs").get<int>(), 1);
+}
+
+}  // namespace
+}  // namespace lander::test

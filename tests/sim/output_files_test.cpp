@@ -38,17 +38,17 @@ TEST(AtomicFile, AppearsOnlyOnCommit) {
     AtomicFile f(dir + "/a.txt");
     f.write("hello\n");
     EXPECT_FALSE(fs::exists(dir + "/a.txt"));  // only the temporary file so far
-    EXPECT_TRUE(fs::exists(dir + "/a.txt.tmp"));
+    EXPECT_TRUE(fs::exists(dir + "/a.txt.tmp." + std::to_string(getpid())));
     f.commit();
   }
   EXPECT_EQ(slurp(dir + "/a.txt"), "hello\n");
-  EXPECT_FALSE(fs::exists(dir + "/a.txt.tmp"));
+  EXPECT_FALSE(fs::exists(dir + "/a.txt.tmp." + std::to_string(getpid())));
   {
     AtomicFile f(dir + "/b.txt");
     f.write("half");
   }  // not committed: nothing under either name
   EXPECT_FALSE(fs::exists(dir + "/b.txt"));
-  EXPECT_FALSE(fs::exists(dir + "/b.txt.tmp"));
+  EXPECT_FALSE(fs::exists(dir + "/b.txt.tmp." + std::to_string(getpid())));
   fs::remove_all(dir);
 }
 
@@ -67,7 +67,7 @@ TEST(AtomicFile, CannotCreateNamesTheFile) {
 TEST(AtomicFile, FullDiskThrowsNamingTheFile) {
   if (!fs::exists("/dev/full")) GTEST_SKIP() << "no /dev/full";
   const std::string dir = temp_dir();
-  fs::create_symlink("/dev/full", dir + "/trace.csv.tmp");
+  fs::create_symlink("/dev/full", dir + "/trace.csv.tmp." + std::to_string(getpid()));
   try {
     CsvWriter w(dir + "/trace.csv", {"t_s", "x_m"});
     for (int i = 0; i < 100000; ++i) w.num(i * 0.01, 4).num(1.0, 5).end_row();

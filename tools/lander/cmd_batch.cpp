@@ -14,7 +14,7 @@
 #include "lander/campaign/campaign.h"
 #include "lander/campaign/merge.h"
 #include "lander/campaign/runner.h"
-#include "lander/sim/json.h"
+#include "lander/sim/output_files.h"
 #include "lander/sim/scenario.h"
 
 namespace lander::cli {
@@ -55,7 +55,7 @@ int batch(const Args& args) {
   c["scenarios"].push_back(entry);
   fs::create_directories(o.out_dir);
   const std::string file = o.out_dir + "/batch.campaign.yaml";
-  sim::write_text_file(file, YAML::Dump(c) + "\n");
+  sim::write_file_atomic(file, YAML::Dump(c) + "\n");
   const campaign::Campaign camp = campaign::Campaign::load(file);
   const auto plan = campaign::make_plan(camp);
   campaign::write_plan(camp, plan, o.out_dir);

@@ -15,7 +15,7 @@
 
 #include "command.h"
 #include "lander/campaign/regress.h"
-#include "lander/sim/json.h"
+#include "lander/sim/output_files.h"
 #include "lander/sim/process.h"
 
 namespace lander::cli {
@@ -191,7 +191,7 @@ int cmd_compare(const ArgParser& a) {
   const campaign::RegressResult r = campaign::regress(dir, a.value("baseline"), o);
   std::vector<std::string> outputs = {dir + "/regress.json"};
   if (a.has("json")) outputs.push_back(a.value("json"));
-  for (const std::string& path : outputs) sim::write_text_file(path, r.report.dump(1) + "\n");
+  for (const std::string& path : outputs) sim::write_json_file(path, r.report);
   print_summary(r.report);
   std::string html_error;
   if (a.has("html")) {

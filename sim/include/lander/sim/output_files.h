@@ -1,5 +1,5 @@
 // Output files of a run and of the benchmarks: every file is written under a temporary name
-// next to it (`<path>.tmp`), flushed and checked, and only then renamed into place, so a run
+// next to it (`<path>.tmp.<pid>`), flushed and checked, and only then renamed into place, so a run
 // that stops midway (error, full disk, crash) never leaves a half file under the real name.
 // A failed write throws OutputError naming the file.
 //
