@@ -10,6 +10,8 @@ void CartMotionParams::validate() const {
   require(speed_profile == "constant" || speed_profile == "stop_and_go", "speed_profile",
           "must be constant or stop_and_go (got '" + speed_profile + "')");
   require(speed_mps >= 0 && speed_mps <= 5, "speed_mps", "must be in [0, 5]");
+  require(platform_height_m >= 0.4 && platform_height_m <= 2.0, "platform_height_m",
+          "must be in [0.4, 2.0] m (the platform sits on the cart's posts)");
   require(path != "arc" || std::abs(turn_radius_m) >= 2, "turn_radius_m",
           "|radius| must be >= 2 m");
   require(accel_mps2 > 0 && accel_mps2 <= 5, "accel_mps2", "must be in (0, 5]");

@@ -38,7 +38,7 @@ double hover_speed_radps(const RotorParams& p, double mass_kg, double gravity_mp
 }
 
 BodyWrench rotor_wrench(const RotorParams& p, const RotorArray& w_radps,
-                        const RotorArray& thrust_factor) {
+                        const RotorArray& thrust_factor, const RotorArray& torque_factor) {
   BodyWrench out;
   const Eigen::Vector3d ez = Eigen::Vector3d::UnitZ();
   for (int k = 0; k < kNumRotors; ++k) {
@@ -47,7 +47,7 @@ BodyWrench rotor_wrench(const RotorParams& p, const RotorArray& w_radps,
     out.force_B_N += f;
     // Moment of the thrust about the centre of mass plus the rotor's reaction torque.
     out.torque_B_Nm += rotor_position_B(p, k).cross(f);
-    out.torque_B_Nm -= rotor_spin(k) * rotor_torque_Nm(p, w_radps[k]) * ez;
+    out.torque_B_Nm -= rotor_spin(k) * torque_factor[k] * rotor_torque_Nm(p, w_radps[k]) * ez;
   }
   return out;
 }
@@ -69,10 +69,17 @@ void MotorBank::reset(const RotorArray& w_radps) {
 void MotorBank::step(const RotorArray& w_cmd_radps, double dt_s) {
   if (!(dt_s > 0)) throw std::invalid_argument("MotorBank::step: dt_s must be > 0");
   // Exact solution of the first-order lag over dt with the command held constant.
-  const double alpha = 1.0 - std::exp(-dt_s / p_.tau_s);
   for (int k = 0; k < kNumRotors; ++k) {
+    const double alpha = 1.0 - std::exp(-dt_s / (p_.tau_s * tau_scale_[k]));
     w_[k] += (saturate(w_cmd_radps[k]) - w_[k]) * alpha;
   }
+}
+
+void MotorBank::set_tau_scale(const RotorArray& scale) {
+  for (double s : scale) {
+    if (!(s > 0)) throw std::invalid_argument("MotorBank::set_tau_scale: scales must be > 0");
+  }
+  tau_scale_ = scale;
 }
 
 }  // namespace lander::sim

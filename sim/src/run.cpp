@@ -13,6 +13,7 @@
 
 #include "lander/sim/loop.h"
 #include "lander/sim/output_files.h"
+#include "lander/sim/plant.h"
 #include "lander/sim/renderer.h"
 #include "lander/sim/video.h"
 #include "lander/sim/world.h"
@@ -90,7 +91,7 @@ void run_kinematic(const Scenario& s, const RunOptions& o, World& world, Rendere
     for (double ts : exposure_sample_times(s.camera, t0, dt)) {
       set_state(ts);
       renderer.render_camera(world.model(), world.data(), world.camera_id(),
-                             s.camera.intrinsics.width_px, s.camera.intrinsics.height_px, render);
+                             camera.render_size().width, camera.render_size().height, render);
       camera.add(render);
     }
     render_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - clock0).count();
@@ -160,6 +161,7 @@ void preflight(const Scenario& s, const RunOptions& o) {
     throw ConfigError(s.world.model_path + ": cannot open model file (world.model)");
   }
   TargetGeometry::load(s.world.target_path);  // throws naming the file and key
+  TargetGeometry::load(s.flight.target_path);  // the flight software's copy
   if (o.out_dir.empty()) throw ConfigError("no output directory given (--out DIR)");
   const std::string parent = parent_dir(o.out_dir);
   if (!is_dir(parent) && parent != ".") {
@@ -178,6 +180,7 @@ Json run_scenario(const Scenario& s, const RunOptions& o) {
   preflight(s, o);
   // Load the world (may throw ConfigError for an unreadable model) before writing anything.
   World world(s.world, s.camera.intrinsics);
+  apply_plant_truth(s, world);
   if (o.video) world.reserve_offscreen(s.video.chase_width_px, s.video.chase_height_px);
   Renderer renderer(world.model(), s.render);
   make_dirs(o.out_dir);

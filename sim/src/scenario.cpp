@@ -28,8 +28,8 @@ void Scenario::validate() const {
   validate_nested("vehicle", vehicle);
   validate_nested("sensors", sensors);
   validate_nested("wind", wind);
-  validate_nested("estimator", estimator);
-  validate_nested("controller", controller);
+  validate_nested("computer", computer);
+  validate_nested("flight", flight);
   validate_nested("faults", faults);
   validate_nested("video", video);
   require(trace_rate_hz > 0 && trace_rate_hz <= 1000, "trace_rate_hz", "must be in (0, 1000]");
@@ -46,25 +46,42 @@ Scenario Scenario::defaults() {
   Scenario s;
   const std::string vehicle_yaml = std::string(LANDER_MODELS_DIR) + "/vehicle.yaml";
   read_params(load_yaml_file(vehicle_yaml), vehicle_yaml, s.vehicle.model);
+  s.flight = flight::FlightConfig::load(flight::default_flight_file());
   return s;
 }
 
 Scenario Scenario::load(const std::string& path) {
   Scenario s = defaults();
-  read_params(load_yaml_file(path), path, s);
+  const YAML::Node root = load_yaml_file(path);
+  // The flight parameter file first (flight.file), then the scenario's keys on top of it.
+  std::string flight_file = flight::resolve_flight_file("", path);
+  if (root.IsMap() && root["flight"] && root["flight"].IsMap() && root["flight"]["file"]) {
+    const YAML::Node f = root["flight"]["file"];
+    if (!f.IsScalar()) {
+      throw ConfigError(yaml_where(f, path) + ": invalid value for 'flight.file': expected a path");
+    }
+    flight_file = flight::resolve_flight_file(f.Scalar(), path);
+    try {
+      s.flight = flight::FlightConfig::load(flight_file);
+    } catch (const ConfigError& e) {
+      throw ConfigError(yaml_where(f, path) + ": flight.file: " + e.what());
+    }
+  }
+  if (root.IsMap()) {
+    for (const auto& kv : root) {
+      const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : "";
+      if (key == "estimator" || key == "controller") {
+        throw ConfigError(yaml_where(kv.first, path) + ": the key '" + key + "' moved to 'flight." + key +
+                          "' (the flight software's own configuration, models/flight.yaml); "
+                          "estimator.vision_latency_ms and measured_latency are now under "
+                          "'computer:'");
+      }
+    }
+  }
+  read_params(root, path, s);
+  s.flight.file = flight_file;
   return s;
 }
-
-std::uint64_t derive_seed(std::uint64_t scenario_seed, const std::string& stream) {
-  // FNV-1a of the stream name mixed with the scenario seed through SplitMix64's finaliser.
-  std::uint64_t h = 1469598103934665603ull;
-  for (unsigned char c : stream) h = (h ^ c) * 1099511628211ull;
-  std::uint64_t z = scenario_seed + 0x9E3779B97F4A7C15ull * (h | 1);
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  return z ^ (z >> 31);
-}
-
 
 void scripted_vehicle_state(const VehicleSetup& v, double t, Eigen::Isometry3d& X_WB,
                             Eigen::Vector3d& v_W, Eigen::Vector3d& omega_B) {

@@ -3,7 +3,10 @@
 #include <cmath>
 #include <stdexcept>
 
+#include <Eigen/Geometry>
+
 #include "lander/estimator/altitude_fusion.h"
+#include "lander/estimator/types.h"
 
 namespace lander::sim {
 
@@ -43,9 +46,12 @@ ImuSample ImuModel::sample(const VehicleTruth& truth) {
   const Eigen::Matrix3d R_WB = truth.X_WB.linear();
   const Eigen::Vector3d f_B =
       R_WB.transpose() * (truth.a_W_mps2 + Eigen::Vector3d(0, 0, p_.gravity_mps2));
+  // A misaligned IMU measures in its own axes S: R_SB = R_BS^T.
+  const Eigen::Matrix3d R_SB = R_from_rpy(p_.misalignment_rad).transpose();
+  const Eigen::Vector3d w_S = R_SB * truth.omega_B_radps, f_S = R_SB * f_B;
   for (int i = 0; i < 3; ++i) {
-    s.gyro_B_radps[i] = truth.omega_B_radps[i] + b_g_[i] + p_.gyro_noise_std_radps * n_(rng_);
-    s.accel_B_mps2[i] = f_B[i] + b_a_[i] + p_.accel_noise_std_mps2 * n_(rng_);
+    s.gyro_B_radps[i] = w_S[i] + b_g_[i] + p_.gyro_noise_std_radps * n_(rng_);
+    s.accel_B_mps2[i] = f_S[i] + b_a_[i] + p_.accel_noise_std_mps2 * n_(rng_);
   }
   return s;
 }
@@ -163,15 +169,21 @@ MagSample MagnetometerModel::sample(const VehicleTruth& truth) {
   clock_.advance(truth.t_s);
   MagSample s;
   s.t_s = truth.t_s;
-  s.field_B_uT = truth.X_WB.linear().transpose() * p_.field_W_uT + bias_;
+  s.field_B_uT = truth.X_WB.linear().transpose() * p_.true_field_W_uT() + bias_;
   for (int i = 0; i < 3; ++i) s.field_B_uT[i] += p_.noise_std_uT * n_(rng_);
   return s;
 }
 
+Eigen::Vector3d MagnetometerParams::true_field_W_uT() const {
+  return Eigen::AngleAxisd(declination_rad, Eigen::Vector3d::UnitZ()) * field_W_uT;
+}
+
 // ------------------------------------------------------------------------------- suite
-std::uint64_t sensor_stream_seed(std::uint64_t scenario_seed, std::uint64_t stream) {
-  // SplitMix64 (Steele, Lea, Flood 2014) of the seed advanced by `stream` golden-ratio steps.
-  std::uint64_t z = scenario_seed + (stream + 1) * 0x9E3779B97F4A7C15ull;
+std::uint64_t derive_seed(std::uint64_t scenario_seed, const std::string& stream) {
+  // FNV-1a of the stream name mixed with the scenario seed through SplitMix64's finaliser.
+  std::uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : stream) h = (h ^ c) * 1099511628211ull;
+  std::uint64_t z = scenario_seed + 0x9E3779B97F4A7C15ull * (h | 1);
   z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
   z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
   return z ^ (z >> 31);
@@ -179,17 +191,29 @@ std::uint64_t sensor_stream_seed(std::uint64_t scenario_seed, std::uint64_t stre
 
 SensorSuite::SensorSuite(const SensorSuiteParams& p, std::uint64_t scenario_seed)
     : p_((p.validate(), p)),
-      imu_(p.imu, sensor_stream_seed(scenario_seed, 1)),
-      baro_(p.baro, sensor_stream_seed(scenario_seed, 2)),
-      gps_(p.gps, sensor_stream_seed(scenario_seed, 3)),
-      us_(p.ultrasonic, sensor_stream_seed(scenario_seed, 4)) {}
+      imu_(p.imu, derive_seed(scenario_seed, "imu")),
+      mag_(p.magnetometer, derive_seed(scenario_seed, "magnetometer")),
+      baro_(p.baro, derive_seed(scenario_seed, "baro")),
+      gps_(p.gps, derive_seed(scenario_seed, "gps")),
+      us_(p.ultrasonic, derive_seed(scenario_seed, "ultrasonic")) {}
 
-void SensorSuite::sample(const VehicleTruth& truth) {
+SensorSuite::Sampled SensorSuite::sample(const VehicleTruth& truth) {
   const double t = truth.t_s;
-  if (imu_.due(t)) q_imu_.push(imu_.sample(truth), t + p_.imu.latency_s);
-  if (baro_.due(t)) q_baro_.push(baro_.sample(truth), t + p_.baro.latency_s);
-  if (gps_.due(t)) q_gps_.push(gps_.sample(truth), t + p_.gps.latency_s);
-  if (us_.due(t)) q_us_.push(us_.sample(truth), t + p_.ultrasonic.latency_s);
+  Sampled s;
+  if (imu_.due(t)) s.imu = imu_.sample(truth);
+  if (mag_.due(t)) s.magnetometer = mag_.sample(truth);
+  if (baro_.due(t)) s.baro = baro_.sample(truth);
+  if (gps_.due(t)) s.gps = gps_.sample(truth);
+  if (us_.due(t)) s.ultrasonic = us_.sample(truth);
+  return s;
+}
+
+void SensorSuite::transmit(const Sampled& s) {
+  if (s.imu) q_imu_.push(*s.imu, s.imu->t_s + p_.imu.latency_s);
+  if (s.magnetometer) q_mag_.push(*s.magnetometer, s.magnetometer->t_s + p_.magnetometer.latency_s);
+  if (s.baro) q_baro_.push(*s.baro, s.baro->t_s + p_.baro.latency_s);
+  if (s.gps) q_gps_.push(*s.gps, s.gps->t_s + p_.gps.latency_s);
+  if (s.ultrasonic) q_us_.push(*s.ultrasonic, s.ultrasonic->t_s + p_.ultrasonic.latency_s);
 }
 
 SensorSuite::Delivered SensorSuite::deliver(double t_s) {
@@ -198,6 +222,7 @@ SensorSuite::Delivered SensorSuite::deliver(double t_s) {
   d.baro = q_baro_.pop_ready(t_s);
   d.gps = q_gps_.pop_ready(t_s);
   d.ultrasonic = q_us_.pop_ready(t_s);
+  d.magnetometer = q_mag_.pop_ready(t_s);
   return d;
 }
 

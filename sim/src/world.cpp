@@ -65,9 +65,9 @@ World::World(const WorldParams& params, const CameraModel& camera) : camera_(cam
   }
   // The MuJoCo camera renders a centred pinhole; its fovy fixes fy = (H / 2) / tan(fovy / 2).
   // Off-centre principal points and distortion are applied after rendering (camera.cpp).
-  m_->cam_fovy[camera_id_] =
-      2.0 * std::atan(0.5 * camera_.height_px / camera_.fy_px) * 180.0 / M_PI;
-  reserve_offscreen(camera_.width_px, camera_.height_px);
+  const cv::Size render = pinhole_render_size(camera_);
+  m_->cam_fovy[camera_id_] = 2.0 * std::atan(0.5 * render.height / camera_.fy_px) * 180.0 / M_PI;
+  reserve_offscreen(render.width, render.height);
   if (m_->vis.global.offwidth > kMaxRenderSidePx || m_->vis.global.offheight > kMaxRenderSidePx) {
     throw ConfigError(params.model_path + ": <visual><global offwidth/offheight> " +
                       std::to_string(m_->vis.global.offwidth) + "x" +

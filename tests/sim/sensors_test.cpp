@@ -433,9 +433,9 @@ TEST(SensorSuite, RatesLatenciesAndSeeds) {
   for (int k = 0; k <= 2000; ++k) {  // 2 s of a 1 kHz loop
     const double t = k * 1e-3;
     const VehicleTruth tr = at_rest(t, 2.0);
-    a.sample(tr);
-    b.sample(tr);
-    c.sample(tr);
+    a.transmit(a.sample(tr));
+    b.transmit(b.sample(tr));
+    c.transmit(c.sample(tr));
     const auto da = a.deliver(t), db = b.deliver(t), dc = c.deliver(t);
     for (const auto& s : da.baro) EXPECT_NEAR(t - s.t_s, p.baro.latency_s, 1e-3 + 1e-9);
     for (const auto& s : da.gps) EXPECT_NEAR(t - s.t_s, p.gps.latency_s, 1e-3 + 1e-9);
@@ -454,9 +454,9 @@ TEST(SensorSuite, RatesLatenciesAndSeeds) {
   EXPECT_EQ(n_baro, static_cast<int>(std::floor(50 * (2.0 - 0.02) + 1e-9)) + 1);
   EXPECT_EQ(n_gps, static_cast<int>(std::floor(5 * (2.0 - 0.1) + 1e-9)) + 1);
   EXPECT_EQ(n_us, static_cast<int>(std::floor(20 * (2.0 - 0.01) + 1e-9)) + 1);
-  EXPECT_NE(sensor_stream_seed(1, 1), sensor_stream_seed(1, 2));
-  EXPECT_NE(sensor_stream_seed(1, 1), sensor_stream_seed(2, 1));
-  EXPECT_EQ(sensor_stream_seed(7, 3), sensor_stream_seed(7, 3));
+  EXPECT_NE(derive_seed(1, "imu"), derive_seed(1, "gps"));
+  EXPECT_NE(derive_seed(1, "imu"), derive_seed(2, "imu"));
+  EXPECT_EQ(derive_seed(7, "baro"), derive_seed(7, "baro"));
 }
 
 }  // namespace

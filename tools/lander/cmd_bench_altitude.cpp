@@ -77,7 +77,7 @@ int bench_altitude(const Args& args) {
   for (double h : heights) {
     sim::Scenario s = sim::Scenario::load(dir + "/static_platform.yaml");
     s.vehicle.start_p_W_m = {0.0, 0.0, 0.8 + h};
-    s.controller.landing.observe_frames = 1000000;
+    s.flight.controller.landing.observe_frames = 1000000;
     s.duration_s = quick ? 10.0 : 30.0;
     const std::string d = run(s, "static_" + std::to_string(static_cast<int>(h * 100)));
     statics[std::to_string(h).substr(0, 5)] = by_sensor(d);
@@ -86,7 +86,7 @@ int bench_altitude(const Args& args) {
   {  // Hover at 10 m for 60 s in light wind.
     sim::Scenario s = sim::Scenario::load(dir + "/static_platform.yaml");
     s.vehicle.start_p_W_m = {0.0, 0.0, 10.8};
-    s.controller.landing.observe_frames = 1000000;
+    s.flight.controller.landing.observe_frames = 1000000;
     s.wind.steady_W_mps = {1.0, 0.5, 0.0};
     s.wind.gust_std_horizontal_mps = 0.3;
     s.duration_s = quick ? 10.0 : 60.0;

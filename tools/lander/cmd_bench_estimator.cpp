@@ -47,7 +47,7 @@ int bench_estimator(const Args& args) {
   std::string json;
   if (a.flag("synthetic")) {
     json = sim::run_estimator_bench(sim::make_synthetic_bench_renderer(world.target(), cam, X_WP),
-                                    X_WP, world.target(), cam, s.estimator.vision, bp, &std::cerr);
+                                    X_WP, world.target(), cam, s.flight.estimator.vision, bp, &std::cerr);
   } else {
     sim::Renderer renderer(world.model(), s.render);
     const int tex = mj_name2id(world.model(), mjOBJ_TEXTURE, "target_tex");
@@ -86,7 +86,7 @@ int bench_estimator(const Args& args) {
       acc.convertTo(out, CV_8UC3, 1.0 / n);
       return out;
     };
-    json = sim::run_estimator_bench(fn, X_WP, world.target(), cam, s.estimator.vision, bp, &std::cerr);
+    json = sim::run_estimator_bench(fn, X_WP, world.target(), cam, s.flight.estimator.vision, bp, &std::cerr);
   }
   sim::write_file_atomic(a.value("json"), json);
   std::cout << json;

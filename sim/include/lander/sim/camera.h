@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -16,6 +17,9 @@
 #include "lander/estimator/types.h"
 
 namespace lander::sim {
+
+class World;
+class Renderer;
 
 // Largest image side (px) the simulator renders: the offscreen framebuffer MuJoCo allocates
 // for the camera must fit the GL implementation's limits (GL_MAX_RENDERBUFFER_SIZE and
@@ -31,7 +35,19 @@ struct CameraParams {
   double exposure_s{0.002};      ///< exposure time (s); YAML exposure_ms
   int blur_samples{1};           ///< renders averaged over the exposure (1 = no blur)
   double read_noise_dn{0.0};     ///< Gaussian read noise std (8-bit grey levels)
+  double gain{1.0};              ///< exposure x gain relative to nominal: scales the image
+                                 ///< (clipped at white); < 1 darker, > 1 brighter
+  Eigen::Vector3d mount_error_rad{Eigen::Vector3d::Zero()};  ///< true mount rotation off the
+                                 ///< nominal (MJCF) one: roll, pitch, yaw about B's x, y, z
+                                 ///< (rad); YAML mount_error_deg
+  Eigen::Vector3d mount_offset_m{Eigen::Vector3d::Zero()};   ///< true mount position off the
+                                 ///< nominal one, in B (m)
   void validate() const {
+    require(gain > 0 && gain <= 16, "gain", "must be in (0, 16]");
+    require(mount_error_rad.cwiseAbs().maxCoeff() <= M_PI / 6, "mount_error_deg",
+            "each angle must be within +-30 deg");
+    require(mount_offset_m.cwiseAbs().maxCoeff() <= 0.2, "mount_offset_m",
+            "each component must be within +-0.2 m");
     validate_nested("intrinsics", intrinsics);
     const std::string sides = "must be in [" + std::to_string(kMinCameraSidePx) + ", " +
                               std::to_string(kMaxRenderSidePx) + "] (offscreen render limit)";
@@ -54,6 +70,9 @@ void visit_fields(V& v, CameraParams& p) {
   v("exposure_ms", p.exposure_s, 1e-3);
   v("blur_samples", p.blur_samples);
   v("read_noise_dn", p.read_noise_dn);
+  v("gain", p.gain);
+  v("mount_error_deg", p.mount_error_rad, M_PI / 180.0);
+  v("mount_offset_m", p.mount_offset_m);
 }
 
 // One frame as the vehicle delivers it, plus the truth the simulator keeps beside it.
@@ -70,6 +89,11 @@ struct CameraFrame {
 std::vector<double> exposure_sample_times(const CameraParams& p, double t_start_s,
                                           double physics_dt_s);
 
+// Size of the centred pinhole render (focal length fy) that the camera's image is remapped
+// from: the camera's own size without distortion, larger when barrel distortion or an
+// off-centre principal point look beyond it (at most kMaxRenderSidePx).
+cv::Size pinhole_render_size(const CameraModel& c);
+
 // Turns renders of the centred pinhole MuJoCo camera into the configured camera's image:
 // averages the blur sub-renders, applies distortion / principal point by a precomputed
 // remap, adds seeded read noise.
@@ -78,20 +102,45 @@ class CameraPipeline {
   CameraPipeline(const CameraParams& params, std::uint64_t seed);
 
   void begin(double t_start_s);        // start a new exposure
-  void add(const cv::Mat& render_bgr); // one sub-render (pinhole, camera size)
+  void add(const cv::Mat& render_bgr); // one sub-render (pinhole, render_size())
   // Averages the sub-renders and finishes the frame. Throws if no render was added.
   CameraFrame finish(int index, const Eigen::Isometry3d& X_WC_mid);
 
   const CameraParams& params() const { return params_; }
+  cv::Size render_size() const { return render_size_; }
 
  private:
   CameraParams params_;
   std::uint64_t seed_;
+  cv::Size render_size_;
   bool needs_remap_ = false;
   cv::Mat map_x_, map_y_;
   cv::Mat first_, accum_;
   int count_ = 0;
   double t_start_ = 0.0;
+};
+
+// The camera on the vehicle in the loop: exposes at its rate, renders the world at the
+// exposure's sample times (one physics state each) and finishes the frame when the exposure
+// ends. Call advance() once per physics step, before the step, with the state at t_s.
+class CameraRig {
+ public:
+  CameraRig(const CameraParams& params, std::uint64_t seed, double physics_dt_s);
+  // Renders what falls at t_s; returns the frame when its exposure ended at t_s. Adds the
+  // render wall time to *render_ms when given.
+  std::optional<CameraFrame> advance(double t_s, World& world, Renderer& renderer,
+                                     double* render_ms = nullptr);
+  int frames() const { return frame_index_; }
+
+ private:
+  CameraPipeline pipeline_;
+  double dt_, period_;
+  int frame_index_ = 0;
+  double next_frame_t_ = 0.0;
+  bool exposing_ = false;
+  std::vector<double> sample_times_;
+  std::size_t next_sample_ = 0;
+  cv::Mat render_;
 };
 
 }  // namespace lander::sim

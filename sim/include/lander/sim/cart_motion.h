@@ -22,6 +22,8 @@ struct CartMotionParams {
   double go_s{4.0};                       ///< stop_and_go cruise time per cycle (s)
   double stop_s{2.0};                     ///< stop_and_go standstill time per cycle (s)
   double start_delay_s{0.0};              ///< time before the cart starts (s)
+  double platform_height_m{0.80};         ///< true height of the platform's top above the
+                                          ///< ground (m); models/cart.xml has 0.80 m
   void validate() const;
 };
 
@@ -37,6 +39,7 @@ void visit_fields(V& v, CartMotionParams& p) {
   v("go_s", p.go_s);
   v("stop_s", p.stop_s);
   v("start_delay_s", p.start_delay_s);
+  v("platform_height_m", p.platform_height_m);
 }
 
 // Cart reference: q = (x, y, yaw) of the platform centre in W and its first two derivatives.

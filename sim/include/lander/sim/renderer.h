@@ -15,7 +15,8 @@ namespace lander::sim {
 struct RenderParams {
   std::string backend{"auto"};  ///< GL backend: auto (EGL, then OSMesa), egl, osmesa
   int msaa_samples{0};          ///< multisample anti-aliasing samples (0 = off; see README)
-  bool shadows{false};          ///< shadow mapping (costly on llvmpipe; see README)
+  bool shadows{false};          ///< the sun casts shadows (the vehicle's and the cart's on the
+                                ///< rings): shadow mapping, costly on llvmpipe (README)
   void validate() const {
     require(backend == "auto" || backend == "egl" || backend == "osmesa", "backend",
             "must be auto, egl or osmesa (got '" + backend + "')");

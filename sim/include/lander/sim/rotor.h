@@ -75,8 +75,10 @@ struct BodyWrench {
 // left unscaled.
 //   F_B = sum_k f_k kT w_k^2 e_z
 //   M_B = sum_k r_k x (f_k kT w_k^2 e_z) - s_k kQ w_k^2 e_z
+// torque_factor[k] multiplies rotor k's reaction torque (a rotor with another kQ).
 BodyWrench rotor_wrench(const RotorParams& p, const RotorArray& w_radps,
-                        const RotorArray& thrust_factor = {1, 1, 1, 1, 1, 1});
+                        const RotorArray& thrust_factor = {1, 1, 1, 1, 1, 1},
+                        const RotorArray& torque_factor = {1, 1, 1, 1, 1, 1});
 
 // Six motors with first-order lag toward the commanded speed and saturation:
 //   dw/dt = (sat(w_cmd) - w) / tau,
@@ -91,10 +93,13 @@ class MotorBank {
   const RotorArray& speeds_radps() const { return w_; }
   const RotorParams& params() const { return p_; }
   double saturate(double w) const;
+  // Rotor k's time constant becomes tau_s x scale[k] (each > 0): a slower or faster motor.
+  void set_tau_scale(const RotorArray& scale);
 
  private:
   RotorParams p_;
   RotorArray w_{};
+  RotorArray tau_scale_{1, 1, 1, 1, 1, 1};
 };
 
 }  // namespace lander::sim

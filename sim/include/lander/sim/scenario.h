@@ -11,12 +11,8 @@
 
 #include <Eigen/Core>
 
-#include "lander/controller/params.h"
-#include "lander/estimator/altitude_fusion.h"
-#include "lander/estimator/navigation.h"
 #include "lander/estimator/params_io.h"
-#include "lander/estimator/sample_screen.h"
-#include "lander/estimator/vision_params.h"
+#include "lander/flight/flight_config.h"
 #include "lander/sim/camera.h"
 #include "lander/sim/ground_effect.h"
 #include "lander/sim/rotor.h"
@@ -44,21 +40,41 @@ void visit_fields(V& v, Waypoint& p) {
   v("rpy_deg", p.rpy_rad, M_PI / 180.0);
 }
 
-// Physical rotor and ground-effect parameters of the simulated vehicle (truth side). Defaults
-// come from models/vehicle.yaml; mass and inertia are in models/hexarotor.xml.
+// The simulated vehicle as it is (truth side): mass and inertia (applied to the MJCF body),
+// rotors and ground effect, and per-rotor deviations (one weak motor, a slow ESC). Defaults
+// come from models/vehicle.yaml. The flight software's belief about the vehicle is
+// flight.controller.vehicle and never reads these.
 struct VehicleModelParams {
+  double mass_kg{4.0};                                   ///< total mass (kg)
+  Eigen::Vector3d inertia_kgm2{0.09, 0.09, 0.16};        ///< diagonal inertia in B (kg m^2)
   RotorParams rotor;
   GroundEffectParams ground_effect;
+  std::vector<double> thrust_scale{1, 1, 1, 1, 1, 1};  ///< rotor k's kT is rotor.kT x this
+  std::vector<double> torque_scale{1, 1, 1, 1, 1, 1};  ///< rotor k's kQ is rotor.kQ x this
+  std::vector<double> tau_scale{1, 1, 1, 1, 1, 1};     ///< rotor k's lag is rotor.tau_s x this
   void validate() const {
+    require(mass_kg > 0 && mass_kg < 100, "mass_kg", "must be in (0, 100) kg");
+    require(inertia_kgm2.minCoeff() > 0, "inertia_kgm2", "all entries must be > 0");
     validate_nested("rotor", rotor);
     validate_nested("ground_effect", ground_effect);
+    for (auto [key, v] : {std::pair<const char*, const std::vector<double>*>{"thrust_scale", &thrust_scale},
+                          {"torque_scale", &torque_scale},
+                          {"tau_scale", &tau_scale}}) {
+      require(v->size() == static_cast<std::size_t>(kNumRotors), key, "needs one value per rotor (6)");
+      for (double x : *v) require(x > 0 && x <= 2, key, "every value must be in (0, 2]");
+    }
   }
 };
 
 template <class V>
 void visit_fields(V& v, VehicleModelParams& p) {
+  v("mass_kg", p.mass_kg);
+  v("inertia_kgm2", p.inertia_kgm2);
   v.nested("rotor", p.rotor);
   v.nested("ground_effect", p.ground_effect);
+  v("thrust_scale", p.thrust_scale);
+  v("torque_scale", p.torque_scale);
+  v("tau_scale", p.tau_scale);
 }
 
 struct VehicleSetup {
@@ -79,31 +95,20 @@ void visit_fields(V& v, VehicleSetup& p) {
   v.nested("model", p.model);
 }
 
-// The flight software's estimator stages and how vision results reach the controller.
-struct EstimatorSetup {
-  VisionParams vision;
-  AltitudeFusionParams altitude;
-  NavigationParams navigation;
-  SampleLimits sample_limits;      ///< plausibility limits of sensor samples and vision results
+// The flight computer as the simulator models it: how long its vision processing takes. (What
+// the flight software believes is flight:, flight/include/lander/flight/flight_config.h.)
+struct ComputerParams {
   double vision_latency_s{0.030};  ///< processing latency of a frame (s); YAML vision_latency_ms
   bool measured_latency{false};    ///< use the measured processing time instead (not
                                    ///< deterministic: depends on the machine's load)
   void validate() const {
-    validate_nested("vision", vision);
-    validate_nested("altitude", altitude);
-    validate_nested("navigation", navigation);
-    validate_nested("sample_limits", sample_limits);
     require(vision_latency_s >= 0 && vision_latency_s < 1.0, "vision_latency_ms",
             "must be in [0, 1000) ms");
   }
 };
 
 template <class V>
-void visit_fields(V& v, EstimatorSetup& p) {
-  v.nested("vision", p.vision);
-  v.nested("altitude", p.altitude);
-  v.nested("navigation", p.navigation);
-  v.nested("sample_limits", p.sample_limits);
+void visit_fields(V& v, ComputerParams& p) {
   v("vision_latency_ms", p.vision_latency_s, 1e-3);
   v("measured_latency", p.measured_latency);
 }
@@ -235,17 +240,19 @@ struct Scenario {
   VehicleSetup vehicle;
   SensorSuiteParams sensors;
   WindParams wind;
-  EstimatorSetup estimator;
-  ctl::ControllerParams controller;
+  ComputerParams computer;
+  flight::FlightConfig flight;  ///< what the flight software believes (never the fields above)
   FaultParams faults;
   VideoParams video;
   double trace_rate_hz{100.0};  ///< rows per second in trace.csv
 
   void validate() const;
-  // Loads a scenario YAML on top of the defaults (and models/vehicle.yaml for the vehicle
-  // model). Throws ConfigError with file:line and key.
+  // Loads a scenario YAML on top of the defaults (models/vehicle.yaml for the vehicle model,
+  // the flight parameter file named by flight.file, default models/flight.yaml, for the flight
+  // software). Throws ConfigError with file:line and key.
   static Scenario load(const std::string& path);
-  // The defaults with models/vehicle.yaml applied: what a scenario file starts from.
+  // The defaults with models/vehicle.yaml and models/flight.yaml applied: what a scenario
+  // file starts from.
   static Scenario defaults();
 };
 
@@ -262,8 +269,8 @@ void visit_fields(V& v, Scenario& p) {
   v.nested("vehicle", p.vehicle);
   v.nested("sensors", p.sensors);
   v.nested("wind", p.wind);
-  v.nested("estimator", p.estimator);
-  v.nested("controller", p.controller);
+  v.nested("computer", p.computer);
+  v.nested("flight", p.flight);
   v.nested("faults", p.faults);
   v.nested("video", p.video);
   v("trace_rate_hz", p.trace_rate_hz);
@@ -271,9 +278,6 @@ void visit_fields(V& v, Scenario& p) {
 
 // Smallest side of camera.mp4 (px) that the video writer accepts.
 constexpr int kMinVideoSidePx = 16;
-
-// Derives the seed of one random stream ("imu", "camera", ...) from the scenario seed.
-std::uint64_t derive_seed(std::uint64_t scenario_seed, const std::string& stream);
 
 // Kinematic script: body pose and velocity at t (clamped to the first/last waypoint).
 void scripted_vehicle_state(const VehicleSetup& v, double t_s, Eigen::Isometry3d& X_WB,

@@ -28,6 +28,8 @@
 
 #include <cstdint>
 #include <deque>
+#include <optional>
+#include <string>
 #include <random>
 #include <vector>
 
@@ -85,9 +87,15 @@ struct ImuParams {
   double accel_bias_init_std_mps2{0.05};  ///< std of the turn-on bias (m/s^2)
   double gyro_bias_rw_radps_per_sqrts{1e-4};   ///< bias random walk (rad/s/sqrt(s))
   double accel_bias_rw_mps2_per_sqrts{1e-3};   ///< bias random walk (m/s^2/sqrt(s))
+  Eigen::Vector3d misalignment_rad{Eigen::Vector3d::Zero()};  ///< the IMU's axes rotated off B
+                                          ///< by roll, pitch, yaw about B's x, y, z (rad):
+                                          ///< readings are R_SB (truth in B); YAML
+                                          ///< misalignment_deg
 
   void validate() const {
     require(rate_hz > 0, "rate_hz", "must be > 0");
+    require(misalignment_rad.cwiseAbs().maxCoeff() <= M_PI / 18, "misalignment_deg",
+            "each angle must be within +-10 deg");
     require(latency_s >= 0, "latency_ms", "must be >= 0");
     require(gravity_mps2 > 0, "gravity_mps2", "must be > 0");
     require(gyro_noise_std_radps >= 0, "gyro_noise_std_radps", "must be >= 0");
@@ -110,6 +118,7 @@ void visit_fields(V& v, ImuParams& p) {
   v("accel_bias_init_std_mps2", p.accel_bias_init_std_mps2);
   v("gyro_bias_rw_radps_per_sqrts", p.gyro_bias_rw_radps_per_sqrts);
   v("accel_bias_rw_mps2_per_sqrts", p.accel_bias_rw_mps2_per_sqrts);
+  v("misalignment_deg", p.misalignment_rad, M_PI / 180.0);
 }
 
 class ImuModel {
@@ -331,7 +340,14 @@ struct MagnetometerParams {
   Eigen::Vector3d field_W_uT{22.0, 2.0, -42.0};       ///< local field in W (uT), mid-latitude
   double noise_std_uT{0.3};                           ///< white noise per axis (uT)
   double bias_std_uT{0.5};                            ///< residual hard-iron bias after calibration, std (uT)
+  double declination_rad{0.0};  ///< the true field's horizontal part rotated about W z by this
+                                ///< from field_W_uT (rad), counter-clockwise seen from above:
+                                ///< a local declination the flight software's reference lacks;
+                                ///< YAML declination_deg
+  // The field the vehicle is in: field_W_uT with the declination applied.
+  Eigen::Vector3d true_field_W_uT() const;
   void validate() const {
+    require(std::abs(declination_rad) <= M_PI, "declination_deg", "must be within +-180 deg");
     require(rate_hz > 0, "rate_hz", "must be > 0");
     require(latency_s >= 0, "latency_ms", "must be >= 0");
     require(field_W_uT.head<2>().norm() > 1.0, "field_W_uT", "needs a horizontal component (uT)");
@@ -347,6 +363,7 @@ void visit_fields(V& v, MagnetometerParams& p) {
   v("field_W_uT", p.field_W_uT);
   v("noise_std_uT", p.noise_std_uT);
   v("bias_std_uT", p.bias_std_uT);
+  v("declination_deg", p.declination_rad, M_PI / 180.0);
 }
 
 class MagnetometerModel {
@@ -383,35 +400,50 @@ void visit_fields(V& v, SensorSuiteParams& p) {
   v.nested("magnetometer", p.magnetometer);
 }
 
-// One independent seed per random stream from the scenario seed (SplitMix64 of seed and
-// stream index): the same scenario seed always gives the same streams.
-std::uint64_t sensor_stream_seed(std::uint64_t scenario_seed, std::uint64_t stream);
+// Derives the seed of one random stream ("imu", "camera", ...) from the scenario seed
+// (FNV-1a of the name mixed with the seed through SplitMix64's finaliser): the same scenario
+// seed always gives the same streams, and each stream is independent of the others.
+std::uint64_t derive_seed(std::uint64_t scenario_seed, const std::string& stream);
 
-// The four sensors with their delay queues, seeded from one scenario seed (streams 1-4 of
-// sensor_stream_seed: IMU, baro, GPS, ultrasonic). Per physics step the loop calls
-// sample(truth) (samples every sensor that is due, queues it for t + latency) and then
-// deliver(t) (everything whose delivery time has come, in sampling order per sensor).
+// The sensor rig: the five sensors with their delivery queues, seeded from one scenario seed
+// (streams "imu", "baro", "gps", "ultrasonic", "magnetometer" of derive_seed). Per physics step
+// the loop calls sample(truth) (samples every sensor that is due, as it measures), may look at
+// or corrupt what was sampled (metrics, fault hooks), transmit()s it (queued for t + latency),
+// and then deliver(t) (everything whose delivery time has come, in sampling order per sensor).
 class SensorSuite {
  public:
+  struct Sampled {  ///< the samples taken at one instant (absent: that sensor was not due)
+    std::optional<ImuSample> imu;
+    std::optional<BaroSample> baro;
+    std::optional<GpsSample> gps;
+    std::optional<UltrasonicSample> ultrasonic;
+    std::optional<MagSample> magnetometer;
+  };
   struct Delivered {
     std::vector<ImuSample> imu;
     std::vector<BaroSample> baro;
     std::vector<GpsSample> gps;
     std::vector<UltrasonicSample> ultrasonic;
-    bool empty() const { return imu.empty() && baro.empty() && gps.empty() && ultrasonic.empty(); }
+    std::vector<MagSample> magnetometer;
+    bool empty() const {
+      return imu.empty() && baro.empty() && gps.empty() && ultrasonic.empty() && magnetometer.empty();
+    }
   };
   SensorSuite(const SensorSuiteParams& p, std::uint64_t scenario_seed);  // validates p
-  void sample(const VehicleTruth& truth);
+  Sampled sample(const VehicleTruth& truth);
+  void transmit(const Sampled& s);  // queues each sample for its sampling time + latency
   Delivered deliver(double t_s);
   ImuModel& imu() { return imu_; }
   BaroModel& baro() { return baro_; }
   GpsModel& gps() { return gps_; }                  // e.g. gps().inject_offset(...)
   UltrasonicModel& ultrasonic() { return us_; }     // e.g. ultrasonic().inject_garbage(...)
+  MagnetometerModel& magnetometer() { return mag_; }
   const SensorSuiteParams& params() const { return p_; }
 
  private:
   SensorSuiteParams p_;
   ImuModel imu_;
+  MagnetometerModel mag_;
   BaroModel baro_;
   GpsModel gps_;
   UltrasonicModel us_;
@@ -419,6 +451,7 @@ class SensorSuite {
   DelayQueue<BaroSample> q_baro_;
   DelayQueue<GpsSample> q_gps_;
   DelayQueue<UltrasonicSample> q_us_;
+  DelayQueue<MagSample> q_mag_;
 };
 
 }  // namespace lander::sim

@@ -18,12 +18,39 @@
 
 namespace lander::sim {
 
+// The light the scene is lit by (the sun, a directional light, and the renderer's headlight,
+// an ambient term). The defaults are those of models/world.xml.
+struct LightParams {
+  Eigen::Vector3d sun_dir_W{-0.3, -0.2, -1.0};  ///< direction the sunlight travels, in W
+  double sun_intensity{0.55};   ///< diffuse intensity of the sun (0..1 per colour channel)
+  double ambient{0.35};         ///< headlight ambient intensity (0..1)
+  double headlight{0.35};       ///< headlight diffuse intensity (0..1)
+  // Shadows (the sun's, of the vehicle and the cart on the rings) are render.shadows.
+  void validate() const {
+    require(sun_dir_W.norm() > 1e-6 && sun_dir_W.z() < 0, "sun_dir",
+            "must point downwards (z < 0)");
+    require(sun_intensity >= 0 && sun_intensity <= 1, "sun_intensity", "must be in [0, 1]");
+    require(ambient >= 0 && ambient <= 1, "ambient", "must be in [0, 1]");
+    require(headlight >= 0 && headlight <= 1, "headlight", "must be in [0, 1]");
+  }
+};
+
+template <class V>
+void visit_fields(V& v, LightParams& p) {
+  v("sun_dir", p.sun_dir_W);
+  v("sun_intensity", p.sun_intensity);
+  v("ambient", p.ambient);
+  v("headlight", p.headlight);
+}
+
 struct WorldParams {
   std::string model_path{std::string(LANDER_MODELS_DIR) + "/world.xml"};    ///< MJCF world
   std::string target_path{std::string(LANDER_MODELS_DIR) + "/target.yaml"};  ///< target YAML
   double physics_dt_s{0.001};      ///< physics step (s); 1 kHz default
   std::uint64_t ground_seed{7};    ///< seed of the procedural ground texture
+  LightParams light;
   void validate() const {
+    validate_nested("light", light);
     require(!model_path.empty(), "model", "must name an MJCF file");
     require(!target_path.empty(), "target", "must name a target YAML");
     require(physics_dt_s > 0 && physics_dt_s <= 0.005, "dt_ms", "must be in (0, 5] ms");
@@ -36,6 +63,7 @@ void visit_fields(V& v, WorldParams& p) {
   v("target", p.target_path);
   v("dt_ms", p.physics_dt_s, 1e-3);
   v("ground_seed", p.ground_seed);
+  v.nested("light", p.light);
 }
 
 // Converts between MuJoCo's camera frame (looks along -z, y up) and the OpenCV frame C

@@ -1,0 +1,78 @@
+// The flight software's own configuration: everything the estimator and the controller know,
+// like an autopilot's parameter file. Nominal values live in models/flight.yaml; a scenario
+// points at another file (`flight.file`) or overrides keys in its `flight:` section. The
+// simulator's plant keys (vehicle mass, camera as imaged, platform height, magnetic field,
+// gravity, ...) describe the truth and never flow in here: a mismatch between the two is
+// what a software-in-the-loop run is for (DESIGN.md, "Configuration").
+#pragma once
+
+#include <string>
+
+#include "lander/controller/params.h"
+#include "lander/estimator/altitude_fusion.h"
+#include "lander/estimator/navigation.h"
+#include "lander/estimator/params_io.h"
+#include "lander/estimator/sample_screen.h"
+#include "lander/estimator/types.h"
+#include "lander/estimator/vision_params.h"
+
+namespace lander::flight {
+
+// The estimator's stages.
+struct EstimatorParams {
+  VisionParams vision;
+  AltitudeFusionParams altitude;   ///< holds the platform-height prior (platform_height_m)
+  NavigationParams navigation;     ///< holds gravity and the magnetic reference field
+  SampleLimits sample_limits;      ///< plausibility limits of sensor samples and vision results
+  void validate() const {
+    validate_nested("vision", vision);
+    validate_nested("altitude", altitude);
+    validate_nested("navigation", navigation);
+    validate_nested("sample_limits", sample_limits);
+  }
+};
+
+template <class V>
+void visit_fields(V& v, EstimatorParams& p) {
+  v.nested("vision", p.vision);
+  v.nested("altitude", p.altitude);
+  v.nested("navigation", p.navigation);
+  v.nested("sample_limits", p.sample_limits);
+}
+
+struct FlightConfig {
+  // The parameter file these values start from (an absolute path once loaded; the resolved
+  // scenario names it). Empty: the in-class defaults, which equal models/flight.yaml.
+  std::string file;
+  std::string target_path{std::string(LANDER_MODELS_DIR) + "/target.yaml"};  ///< target YAML
+  CameraModel camera;              ///< camera calibration: intrinsics and distortion
+  CameraMount mount;               ///< calibrated camera mount X_BC
+  EstimatorParams estimator;
+  ctl::ControllerParams controller;  ///< holds the nominal vehicle model (controller.vehicle)
+
+  // Throws ConfigError naming the key. Checks that the estimator's and the vehicle model's
+  // gravity agree (one belief about g).
+  void validate() const;
+
+  // Loads a flight parameter file (every key optional, on top of the in-class defaults).
+  static FlightConfig load(const std::string& path);
+};
+
+template <class V>
+void visit_fields(V& v, FlightConfig& p) {
+  v("file", p.file);
+  v("target", p.target_path);
+  v.nested("camera", p.camera);
+  v.nested("mount", p.mount);
+  v.nested("estimator", p.estimator);
+  v.nested("controller", p.controller);
+}
+
+// The default flight parameter file, models/flight.yaml.
+std::string default_flight_file();
+
+// The flight parameter file a scenario's `flight.file` value names: empty -> models/flight.yaml;
+// a relative path is taken from the scenario file's folder. Returns an absolute path.
+std::string resolve_flight_file(const std::string& file_value, const std::string& scenario_file);
+
+}  // namespace lander::flight

@@ -1,0 +1,78 @@
+// The flight stack: the estimator (ring detector, navigation, altitude fusion, sample screen)
+// and the landing controller, built only from the flight configuration (flight_config.h).
+// What a vehicle's flight computer runs: it takes timestamped sensor samples and camera
+// frames and gives rotor speed commands. No MuJoCo, no GL, no truth.
+//
+// Call order per delivery instant (the simulator's loop does this; a vehicle's drivers would
+// too): on_baro / on_gps / on_ultrasonic / on_vision / on_mag for everything delivered, then
+// on_imu for each IMU sample, which runs the controller's inner loop and returns its command.
+#pragma once
+
+#include <limits>
+#include <optional>
+
+#include <opencv2/core.hpp>
+
+#include "lander/controller/landing_controller.h"
+#include "lander/estimator/altitude_fusion.h"
+#include "lander/estimator/navigation.h"
+#include "lander/estimator/sample_screen.h"
+#include "lander/estimator/vision_detector.h"
+#include "lander/flight/flight_config.h"
+
+namespace lander::flight {
+
+// A frame's vision result on its way to the filters: the controller's observation (stamped at
+// mid-exposure) and, for a keyframe, the camera's height above the target plane (else NaN).
+struct VisionResult {
+  PlatformObservation obs;
+  double h_plane_m{std::numeric_limits<double>::quiet_NaN()};
+};
+
+class FlightStack {
+ public:
+  // Loads the target geometry from config.target_path; throws ConfigError for a bad
+  // configuration or target file.
+  explicit FlightStack(const FlightConfig& config);
+
+  // Vision: detects the target in one frame (BGR, as the camera delivers it, distorted; the
+  // detector undistorts with the configuration's calibration). Stateful (tracking window,
+  // keyframes); frames in order. Never throws for bad image content.
+  RingDetection detect(const cv::Mat& bgr) { return detector_.detect(bgr); }
+  // The result to deliver after the processing latency.
+  VisionResult vision_result(const RingDetection& det, double t_mid_s) const;
+
+  // Deliveries (after each sensor's latency). Every sample passes the sample screen first;
+  // rejected ones are counted (rejected()).
+  void on_baro(const BaroSample& b);
+  void on_gps(const GpsSample& g);
+  void on_ultrasonic(const UltrasonicSample& u);
+  void on_mag(const MagSample& m);
+  void on_vision(const VisionResult& vr);
+  // Navigation and altitude prediction, then the controller's inner loop. Returns the rotor
+  // command, or nothing while the navigation has no valid state yet (or the sample was
+  // rejected with nothing good to hold).
+  std::optional<ctl::RotorCommand> on_imu(const ImuSample& raw);
+
+  // State for the recorder (no truth in here).
+  bool altitude_started() const { return fusion_started_; }  ///< fusion has an estimate
+  AltitudeEstimate altitude() const { return fusion_.estimate(); }
+  NavState nav_state() const { return nav_.state(); }
+  const ctl::LandingController& controller() const { return controller_; }
+  const RejectedSamples& rejected() const { return screen_.rejected(); }
+  const FlightConfig& config() const { return config_; }
+  const CameraMount& mount() const { return config_.mount; }
+
+ private:
+  FlightConfig config_;
+  RingTargetDetector detector_;
+  Navigation nav_;
+  AltitudeFusion fusion_;
+  SampleScreen screen_;
+  ctl::LandingController controller_;
+  // The vehicle starts in the air: the filter starts from the first barometer reading, with
+  // the split between height and barometer bias left to GPS and vision.
+  bool fusion_started_{false};
+};
+
+}  // namespace lander::flight

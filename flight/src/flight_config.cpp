@@ -1,0 +1,45 @@
+#include "lander/flight/flight_config.h"
+
+#include <cmath>
+#include <filesystem>
+
+namespace lander::flight {
+
+void FlightConfig::validate() const {
+  require(!target_path.empty(), "target", "must name a target YAML");
+  validate_nested("camera", camera);
+  validate_nested("mount", mount);
+  validate_nested("estimator", estimator);
+  validate_nested("controller", controller);
+  const double g_nav = estimator.navigation.gravity_mps2;
+  const double g_veh = controller.vehicle.gravity_mps2;
+  require(std::abs(g_nav - g_veh) <= 1e-9 * std::max(1.0, std::abs(g_veh)),
+          "estimator.navigation.gravity_mps2",
+          "must equal controller.vehicle.gravity_mps2 (the flight software has one belief about "
+          "gravity)");
+}
+
+FlightConfig FlightConfig::load(const std::string& path) {
+  namespace fs = std::filesystem;
+  FlightConfig c;
+  const YAML::Node root = load_yaml_file(path);
+  read_params(root, path, c);
+  c.file = fs::absolute(path).lexically_normal().string();
+  // A relative target path is taken from this file's folder.
+  if (root.IsMap() && root["target"] && fs::path(c.target_path).is_relative()) {
+    c.target_path = (fs::path(c.file).parent_path() / c.target_path).lexically_normal().string();
+  }
+  return c;
+}
+
+std::string default_flight_file() { return std::string(LANDER_MODELS_DIR) + "/flight.yaml"; }
+
+std::string resolve_flight_file(const std::string& file_value, const std::string& scenario_file) {
+  namespace fs = std::filesystem;
+  if (file_value.empty()) return fs::absolute(default_flight_file()).lexically_normal().string();
+  fs::path p(file_value);
+  if (p.is_relative()) p = fs::path(scenario_file).parent_path() / p;
+  return fs::absolute(p).lexically_normal().string();
+}
+
+}  // namespace lander::flight

@@ -1,0 +1,86 @@
+// The flight software's own configuration (flight/): its parameter file and how it loads.
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "lander/flight/flight_config.h"
+#include "lander/flight/flight_stack.h"
+
+namespace lander::flight {
+namespace {
+
+std::string yaml_of(FlightConfig c) {
+  c.file.clear();  // where it came from is not a value
+  return yaml_to_string(params_to_yaml(c));
+}
+
+std::string write_temp(const std::string& name, const std::string& text) {
+  const std::string path = ::testing::TempDir() + name;
+  std::ofstream(path) << text;
+  return path;
+}
+
+// models/flight.yaml holds the nominal values: exactly the in-class defaults, so that a
+// default changed in one place and not the other is caught. On failure the expected file
+// content is `lander flight-config --defaults`.
+TEST(FlightConfig, ModelsFileEqualsInClassDefaults) {
+  const FlightConfig loaded = FlightConfig::load(default_flight_file());
+  EXPECT_EQ(yaml_of(loaded), yaml_of(FlightConfig{}));
+  EXPECT_EQ(loaded.file, default_flight_file());
+}
+
+TEST(FlightConfig, RelativeTargetIsTakenFromTheFilesFolder) {
+  const std::string path = write_temp("flight_rel.yaml", "target: sub/my_target.yaml\n");
+  const FlightConfig c = FlightConfig::load(path);
+  EXPECT_EQ(c.target_path, ::testing::TempDir() + "sub/my_target.yaml");
+}
+
+TEST(FlightConfig, BadValuesNameFileLineAndKey) {
+  const std::string path =
+      write_temp("flight_bad.yaml", "controller:\n  vehicle:\n    mass_kg: -2\n");
+  try {
+    FlightConfig::load(path);
+    FAIL() << "no error";
+  } catch (const ConfigError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("flight_bad.yaml:3"), std::string::npos) << m;
+    EXPECT_NE(m.find("'controller.vehicle.mass_kg'"), std::string::npos) << m;
+  }
+}
+
+// One belief about gravity: the navigation's and the vehicle model's must agree.
+TEST(FlightConfig, GravityBeliefsMustAgree) {
+  FlightConfig c;
+  c.estimator.navigation.gravity_mps2 = 9.78;
+  EXPECT_THROW(c.validate(), ConfigError);
+  c.controller.vehicle.gravity_mps2 = 9.78;
+  EXPECT_NO_THROW(c.validate());
+}
+
+TEST(FlightConfig, ResolveFlightFile) {
+  EXPECT_EQ(resolve_flight_file("", "/a/b/s.yaml"), default_flight_file());
+  EXPECT_EQ(resolve_flight_file("f.yaml", "/a/b/s.yaml"), "/a/b/f.yaml");
+  EXPECT_EQ(resolve_flight_file("../f.yaml", "/a/b/s.yaml"), "/a/f.yaml");
+  EXPECT_EQ(resolve_flight_file("/x/f.yaml", "/a/b/s.yaml"), "/x/f.yaml");
+}
+
+TEST(FlightStack, MissingTargetFileIsAConfigError) {
+  FlightConfig c;
+  c.target_path = ::testing::TempDir() + "no_such_target.yaml";
+  EXPECT_THROW(FlightStack{c}, ConfigError);
+}
+
+// The stack holds exactly the configuration it was built from.
+TEST(FlightStack, KeepsItsConfiguration) {
+  FlightConfig c;
+  c.camera.fx_px = 700;
+  c.estimator.altitude.platform_height_m = 1.1;
+  const FlightStack fs(c);
+  EXPECT_EQ(fs.config().camera.fx_px, 700);
+  EXPECT_EQ(fs.config().estimator.altitude.platform_height_m, 1.1);
+  EXPECT_FALSE(fs.altitude_started());
+  EXPECT_FALSE(fs.nav_state().valid);
+}
+
+}  // namespace
+}  // namespace lander::flight
