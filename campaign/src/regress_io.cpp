@@ -13,7 +13,7 @@
 #include "lander/campaign/csv.h"
 #include "lander/campaign/regress.h"
 #include "lander/estimator/params_io.h"
-#include "lander/sim/output_files.h"
+#include "lander/sim/util/output_files.h"
 
 namespace lander::campaign {
 

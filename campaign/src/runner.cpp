@@ -18,8 +18,8 @@
 #include <fmt/format.h>
 
 #include "lander/estimator/params_io.h"
-#include "lander/sim/output_files.h"
-#include "lander/sim/process.h"
+#include "lander/sim/util/output_files.h"
+#include "lander/sim/util/process.h"
 #include "yaml_json.h"
 
 namespace lander::campaign {

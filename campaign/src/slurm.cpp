@@ -8,8 +8,8 @@
 #include "lander/campaign/merge.h"
 #include "lander/campaign/runner.h"
 #include "lander/estimator/params_io.h"
-#include "lander/sim/output_files.h"
-#include "lander/sim/process.h"
+#include "lander/sim/util/output_files.h"
+#include "lander/sim/util/process.h"
 
 namespace lander::campaign {
 

@@ -1,6 +1,6 @@
 #include "lander/campaign/stats.h"
 
-#include "lander/sim/stats.h"
+#include "lander/sim/util/stats.h"
 
 #include <algorithm>
 #include <cmath>

@@ -12,7 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "campaign/support/campaign_support.h"
-#include "lander/sim/process.h"
+#include "lander/sim/util/process.h"
 
 namespace lander::test {
 namespace {

@@ -1,5 +1,5 @@
 // Per-sensor altitude error statistics for `lander bench altitude`.
-#include "lander/sim/altitude_metrics.h"
+#include "lander/sim/recorder/altitude_metrics.h"
 
 #include <gtest/gtest.h>
 

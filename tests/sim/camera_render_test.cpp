@@ -11,10 +11,10 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "lander/sim/camera.h"
-#include "lander/sim/mujoco_errors.h"
-#include "lander/sim/renderer.h"
-#include "lander/sim/world.h"
+#include "lander/sim/sensors/camera.h"
+#include "lander/sim/plant/mujoco_errors.h"
+#include "lander/sim/render/renderer.h"
+#include "lander/sim/plant/world.h"
 
 namespace lander::sim {
 namespace {

@@ -13,8 +13,8 @@
 #include <random>
 
 #include "lander/estimator/altitude_fusion.h"
-#include "lander/sim/altitude_metrics.h"
-#include "lander/sim/sensors.h"
+#include "lander/sim/recorder/altitude_metrics.h"
+#include "lander/sim/sensors/sensors.h"
 
 namespace lander::sim {
 namespace {

@@ -9,7 +9,7 @@
 #include <iostream>
 
 #include "lander/estimator/navigation.h"
-#include "lander/sim/sensors.h"
+#include "lander/sim/sensors/sensors.h"
 
 namespace lander::sim {
 namespace {

@@ -1,5 +1,5 @@
 // Ground effect (Cheeseman-Bennett with validity clip).
-#include "lander/sim/ground_effect.h"
+#include "lander/sim/plant/ground_effect.h"
 
 #include <gtest/gtest.h>
 

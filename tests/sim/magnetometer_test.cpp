@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "lander/estimator/navigation.h"
-#include "lander/sim/sensors.h"
+#include "lander/sim/sensors/sensors.h"
 
 namespace lander::sim {
 namespace {

@@ -1,7 +1,7 @@
 // Output files: written under a temporary name and renamed when complete; a failed write
 // throws naming the file and leaves nothing under the real name; JSON through nlohmann with
 // keys in order, null for NaN and round-trip numbers; one CSV writer.
-#include "lander/sim/output_files.h"
+#include "lander/sim/util/output_files.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -13,7 +13,7 @@
 #include <sstream>
 
 #include "common/json_checks.h"
-#include "lander/sim/stats.h"
+#include "lander/sim/util/stats.h"
 
 namespace lander::sim {
 namespace {

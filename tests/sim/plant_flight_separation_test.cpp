@@ -8,9 +8,9 @@
 
 #include <gtest/gtest.h>
 
-#include "lander/sim/plant.h"
+#include "lander/sim/plant/plant.h"
 #include "lander/sim/scenario.h"
-#include "lander/sim/world.h"
+#include "lander/sim/plant/world.h"
 
 namespace lander::sim {
 namespace {
@@ -147,6 +147,10 @@ TEST(PlantTruth, AppliedToTheWorld) {
   EXPECT_NEAR(wn.model()->body_subtreemass[vb], 4.0, 1e-12);
   EXPECT_NEAR(wc.model()->body_subtreemass[vb], 4.6, 1e-12);
   EXPECT_NEAR(wc.model()->body_inertia[3 * vb + 1], 0.11, 1e-12);
+  // Rendering constants stay the model's: the near plane (znear x extent) must not move, or
+  // the platform vanishes from a close camera (mj_setConst recomputes the extent).
+  EXPECT_EQ(wc.model()->stat.extent, wn.model()->stat.extent);
+  EXPECT_EQ(wc.model()->vis.map.znear, wn.model()->vis.map.znear);
   EXPECT_NEAR(wn.X_WP().translation().z(), 0.80, 1e-9);
   EXPECT_NEAR(wc.X_WP().translation().z(), 0.90, 1e-9);
   // Camera: rotated 1 deg about B's x relative to the nominal mount (same vehicle pose).

@@ -1,5 +1,5 @@
 // Rotor and motor model: thrust law, hover trim, lag, saturation, free fall.
-#include "lander/sim/rotor.h"
+#include "lander/sim/plant/rotor.h"
 
 #include <gtest/gtest.h>
 

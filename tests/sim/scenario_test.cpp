@@ -10,7 +10,7 @@
 #include <fstream>
 #include <set>
 
-#include "lander/sim/cart_motion.h"
+#include "lander/sim/plant/cart_motion.h"
 #include "lander/sim/scenario.h"
 
 namespace lander::sim {

@@ -1,5 +1,5 @@
 // Sensor models: each sensor's noise statistics against its params over long samples.
-#include "lander/sim/sensors.h"
+#include "lander/sim/sensors/sensors.h"
 
 #include <gtest/gtest.h>
 

@@ -1,5 +1,5 @@
 // Wind gusts (Gauss-Markov) statistics and drag.
-#include "lander/sim/wind.h"
+#include "lander/sim/plant/wind.h"
 
 #include <gtest/gtest.h>
 

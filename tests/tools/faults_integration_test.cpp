@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "common/json_checks.h"
-#include "lander/sim/process.h"
+#include "lander/sim/util/process.h"
 #include "tools/support/cli.h"
 
 namespace {

@@ -14,7 +14,7 @@
 #include "lander/campaign/campaign.h"
 #include "lander/campaign/merge.h"
 #include "lander/campaign/runner.h"
-#include "lander/sim/output_files.h"
+#include "lander/sim/util/output_files.h"
 #include "lander/sim/scenario.h"
 
 namespace lander::cli {

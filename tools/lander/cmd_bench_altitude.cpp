@@ -14,7 +14,7 @@
 #include <sstream>
 
 #include "command.h"
-#include "lander/sim/output_files.h"
+#include "lander/sim/util/output_files.h"
 #include "lander/sim/run.h"
 
 namespace lander::cli {

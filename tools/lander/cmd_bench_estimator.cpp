@@ -9,13 +9,13 @@
 #include <opencv2/imgproc.hpp>
 
 #include "command.h"
-#include "lander/sim/camera.h"
-#include "lander/sim/estimator_bench.h"
-#include "lander/sim/output_files.h"
-#include "lander/sim/peer_detectors.h"
-#include "lander/sim/renderer.h"
+#include "lander/sim/sensors/camera.h"
+#include "lander/bench/estimator_bench.h"
+#include "lander/sim/util/output_files.h"
+#include "lander/bench/peer_detectors.h"
+#include "lander/sim/render/renderer.h"
 #include "lander/sim/scenario.h"
-#include "lander/sim/world.h"
+#include "lander/sim/plant/world.h"
 
 namespace lander::cli {
 namespace {
@@ -25,7 +25,7 @@ int bench_estimator(const Args& args) {
   if (!a.has("json")) throw UsageError("usage: lander bench estimator --json FILE [--quick]");
   sim::Scenario s = sim::Scenario::defaults();
   s.validate();
-  sim::EstimatorBenchParams bp;
+  bench::EstimatorBenchParams bp;
   if (a.flag("quick")) {  // a smaller sweep for a fast look (not the README figures)
     bp.altitudes_m = {2.5, 10.0};
     bp.tilts_deg = {0.0, 45.0};
@@ -46,12 +46,12 @@ int bench_estimator(const Args& args) {
   const Eigen::Isometry3d X_WP = world.X_WP();
   std::string json;
   if (a.flag("synthetic")) {
-    json = sim::run_estimator_bench(sim::make_synthetic_bench_renderer(world.target(), cam, X_WP),
+    json = bench::run_estimator_bench(bench::make_synthetic_bench_renderer(world.target(), cam, X_WP),
                                     X_WP, world.target(), cam, s.flight.estimator.vision, bp, &std::cerr);
   } else {
     sim::Renderer renderer(world.model(), s.render);
     const int tex = mj_name2id(world.model(), mjOBJ_TEXTURE, "target_tex");
-    sim::MarkerKind shown = sim::MarkerKind::Rings;
+    bench::MarkerKind shown = bench::MarkerKind::Rings;
     cv::Mat img;
     auto render_at = [&](const Eigen::Isometry3d& X_WC) {
       world.set_vehicle_state(X_WC * X_BC.inverse(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
@@ -60,12 +60,12 @@ int bench_estimator(const Args& args) {
                              cam.height_px, img);
       return img;
     };
-    const sim::BenchRenderFn fn = [&](const Eigen::Isometry3d& X_WC, sim::MarkerKind kind,
+    const bench::BenchRenderFn fn = [&](const Eigen::Isometry3d& X_WC, bench::MarkerKind kind,
                                       double blur_px) -> cv::Mat {
       if (kind != shown) {
-        world.set_texture("target_tex", kind == sim::MarkerKind::Rings
+        world.set_texture("target_tex", kind == bench::MarkerKind::Rings
                                             ? render_target_texture(world.target())
-                                            : sim::render_marker_texture(kind, world.target()));
+                                            : bench::render_marker_texture(kind, world.target()));
         renderer.upload_texture(world.model(), tex);
         shown = kind;
       }
@@ -86,7 +86,7 @@ int bench_estimator(const Args& args) {
       acc.convertTo(out, CV_8UC3, 1.0 / n);
       return out;
     };
-    json = sim::run_estimator_bench(fn, X_WP, world.target(), cam, s.flight.estimator.vision, bp, &std::cerr);
+    json = bench::run_estimator_bench(fn, X_WP, world.target(), cam, s.flight.estimator.vision, bp, &std::cerr);
   }
   sim::write_file_atomic(a.value("json"), json);
   std::cout << json;

@@ -6,7 +6,7 @@
 #include <iostream>
 
 #include "command.h"
-#include "lander/sim/output_files.h"
+#include "lander/sim/util/output_files.h"
 #include "lander/sim/run.h"
 
 namespace lander::cli {

@@ -8,13 +8,13 @@
 #include <opencv2/imgproc.hpp>
 
 #include "command.h"
-#include "lander/sim/plant.h"
-#include "lander/sim/camera.h"
-#include "lander/sim/output_files.h"
-#include "lander/sim/renderer.h"
+#include "lander/sim/plant/plant.h"
+#include "lander/sim/sensors/camera.h"
+#include "lander/sim/util/output_files.h"
+#include "lander/sim/render/renderer.h"
 #include "lander/sim/scenario.h"
-#include "lander/sim/stats.h"
-#include "lander/sim/world.h"
+#include "lander/sim/util/stats.h"
+#include "lander/sim/plant/world.h"
 
 namespace lander::cli {
 namespace {

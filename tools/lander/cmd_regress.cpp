@@ -15,8 +15,8 @@
 
 #include "command.h"
 #include "lander/campaign/regress.h"
-#include "lander/sim/output_files.h"
-#include "lander/sim/process.h"
+#include "lander/sim/util/output_files.h"
+#include "lander/sim/util/process.h"
 
 namespace lander::cli {
 namespace {

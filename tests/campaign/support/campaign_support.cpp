@@ -8,7 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "lander/sim/process.h"
+#include "lander/sim/util/process.h"
 
 namespace lander::test {
 

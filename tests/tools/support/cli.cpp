@@ -7,7 +7,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "lander/sim/process.h"
+#include "lander/sim/util/process.h"
 
 namespace lander::test {
 

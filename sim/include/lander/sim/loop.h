@@ -4,10 +4,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "lander/sim/renderer.h"
+#include "lander/sim/render/renderer.h"
 #include "lander/sim/run.h"
 #include "lander/sim/scenario.h"
-#include "lander/sim/world.h"
+#include "lander/sim/plant/world.h"
 
 namespace lander::sim {
 

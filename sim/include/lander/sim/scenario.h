@@ -13,14 +13,14 @@
 
 #include "lander/estimator/params_io.h"
 #include "lander/flight/flight_config.h"
-#include "lander/sim/camera.h"
-#include "lander/sim/ground_effect.h"
-#include "lander/sim/rotor.h"
-#include "lander/sim/sensors.h"
-#include "lander/sim/wind.h"
-#include "lander/sim/cart_motion.h"
-#include "lander/sim/renderer.h"
-#include "lander/sim/world.h"
+#include "lander/sim/sensors/camera.h"
+#include "lander/sim/plant/ground_effect.h"
+#include "lander/sim/plant/rotor.h"
+#include "lander/sim/sensors/sensors.h"
+#include "lander/sim/plant/wind.h"
+#include "lander/sim/plant/cart_motion.h"
+#include "lander/sim/render/renderer.h"
+#include "lander/sim/plant/world.h"
 
 namespace lander::sim {
 

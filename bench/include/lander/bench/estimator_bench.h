@@ -1,0 +1,82 @@
+// `lander bench estimator`: the side-by-side benchmark of issue 3 (seed 000 Table 1 on frames
+// with known truth). A sweep of platform views (altitude x tilt x blur x random yaw) rendered
+// with the ring target, an AprilTag and an ArUco marker of the same outer size, plus frames
+// with no target in view; each method runs on its own frames; per-method metrics, overall,
+// per altitude and per blur length, as JSON.
+//
+// The renderer is a callback, so the harness runs with the MuJoCo renderer (wired by the
+// `lander bench estimator` command) or with the exact synthetic warp (tests, --synthetic).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include "lander/estimator/params_io.h"
+#include "lander/estimator/target.h"
+#include "lander/estimator/types.h"
+#include "lander/estimator/vision_params.h"
+#include "lander/bench/peer_detectors.h"
+
+namespace lander::bench {
+
+// Renders one BGR frame of the bench camera at X_WC (C: OpenCV camera frame, x right, y down,
+// z along the optical axis) with the platform showing marker `kind`, motion-blurred by
+// `blur_px` pixels (0 = sharp). Frame size = the bench camera's.
+using BenchRenderFn =
+    std::function<cv::Mat(const Eigen::Isometry3d& X_WC, MarkerKind kind, double blur_px)>;
+
+struct EstimatorBenchParams {
+  std::vector<double> altitudes_m{1.0, 2.5, 5.0, 10.0, 15.0};  ///< camera height above the top
+  std::vector<double> tilts_deg{0.0, 30.0, 45.0, 60.0, 70.0};  ///< optical axis vs normal
+  std::vector<double> blur_px{0.0, 5.0, 15.0};                 ///< motion-blur lengths (px)
+  int yaws_per_view{2};       ///< random yaws (and azimuths) per altitude/tilt/blur
+  int empty_frames{1000};     ///< frames with no target in view, per method
+  std::uint64_t seed{1};      ///< random yaws, empty-frame poses
+  double aim_jitter_m{0.1};   ///< random offset of the aim point from the platform centre (m)
+  void validate() const;
+};
+
+template <class V>
+void visit_fields(V& v, EstimatorBenchParams& p) {
+  v("altitudes_m", p.altitudes_m);
+  v("tilts_deg", p.tilts_deg);
+  v("blur_px", p.blur_px);
+  v("yaws_per_view", p.yaws_per_view);
+  v("empty_frames", p.empty_frames);
+  v("seed", p.seed);
+  v("aim_jitter_m", p.aim_jitter_m);
+}
+
+// Camera pose X_PC looking at `aim_P_m` from `altitude_m` above the platform plane, the optical
+// axis tilted `tilt_deg` from the platform normal towards azimuth `azimuth_deg`, rotated
+// `yaw_deg` about the optical axis.
+Eigen::Isometry3d bench_camera_pose_P(double altitude_m, double tilt_deg, double yaw_deg,
+                                      double azimuth_deg, const Eigen::Vector2d& aim_P_m);
+
+// Runs the sweep and returns the JSON document: top-level keys `ours`, `apriltag`, `aruco`
+// (OpenCV default, no corner refinement; `aruco.subpix` holds CORNER_REFINE_SUBPIX), each with
+// `overall`, `by_altitude_m` and `by_blur_px` objects of metrics: detection_rate,
+// false_positive_rate, centre_err_px_mean (centres for ours, corners for the squares, against
+// the true projections), reproj_err_px_mean and reproj_err_px_var (eq. 30 as a per-frame RMS),
+// pos_err_m_mean, rot_err_deg_mean, ms_per_frame_median (thread CPU time of one detection,
+// one thread, so a loaded machine does not inflate it), frames, empty_frames;
+// plus `ours.overall.ms_per_frame_median_tracking`, and `config`.
+// `progress`, if given, receives one line per altitude.
+std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isometry3d& X_WP,
+                                const TargetGeometry& target, const CameraModel& camera,
+                                const VisionParams& vision, const EstimatorBenchParams& params,
+                                std::ostream* progress = nullptr);
+
+// A BenchRenderFn drawing the platform with the exact synthetic warp (SyntheticPlatformView,
+// no distortion) at X_WP on uniform ground; blur along 30 deg in the image.
+BenchRenderFn make_synthetic_bench_renderer(const TargetGeometry& target,
+                                            const CameraModel& camera,
+                                            const Eigen::Isometry3d& X_WP);
+
+}  // namespace lander::bench

@@ -1,0 +1,146 @@
+// The MuJoCo world: ground with distractors, the cart with the landing platform, the
+// hexarotor. Owns mjModel/mjData; fills the target texture from models/target.yaml (single
+// source of truth) and the ground texture procedurally at load time; answers truth queries
+// (poses of B, C and P in W) for the logger, the metrics and the tests only.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <mujoco/mujoco.h>
+
+#include "lander/estimator/params_io.h"
+#include "lander/estimator/target.h"
+#include "lander/estimator/types.h"
+#include "lander/sim/sensors/camera.h"
+
+namespace lander::sim {
+
+// The light the scene is lit by (the sun, a directional light, and the renderer's headlight,
+// an ambient term). The defaults are those of models/world.xml.
+struct LightParams {
+  Eigen::Vector3d sun_dir_W{-0.3, -0.2, -1.0};  ///< direction the sunlight travels, in W
+  double sun_intensity{0.55};   ///< diffuse intensity of the sun (0..1 per colour channel)
+  double ambient{0.35};         ///< headlight ambient intensity (0..1)
+  double headlight{0.35};       ///< headlight diffuse intensity (0..1)
+  // Shadows (the sun's, of the vehicle and the cart on the rings) are render.shadows.
+  void validate() const {
+    require(sun_dir_W.norm() > 1e-6 && sun_dir_W.z() < 0, "sun_dir",
+            "must point downwards (z < 0)");
+    require(sun_intensity >= 0 && sun_intensity <= 1, "sun_intensity", "must be in [0, 1]");
+    require(ambient >= 0 && ambient <= 1, "ambient", "must be in [0, 1]");
+    require(headlight >= 0 && headlight <= 1, "headlight", "must be in [0, 1]");
+  }
+};
+
+template <class V>
+void visit_fields(V& v, LightParams& p) {
+  v("sun_dir", p.sun_dir_W);
+  v("sun_intensity", p.sun_intensity);
+  v("ambient", p.ambient);
+  v("headlight", p.headlight);
+}
+
+struct WorldParams {
+  std::string model_path{std::string(LANDER_MODELS_DIR) + "/world.xml"};    ///< MJCF world
+  std::string target_path{std::string(LANDER_MODELS_DIR) + "/target.yaml"};  ///< target YAML
+  double physics_dt_s{0.001};      ///< physics step (s); 1 kHz default
+  std::uint64_t ground_seed{7};    ///< seed of the procedural ground texture
+  LightParams light;
+  void validate() const {
+    validate_nested("light", light);
+    require(!model_path.empty(), "model", "must name an MJCF file");
+    require(!target_path.empty(), "target", "must name a target YAML");
+    require(physics_dt_s > 0 && physics_dt_s <= 0.005, "dt_ms", "must be in (0, 5] ms");
+  }
+};
+
+template <class V>
+void visit_fields(V& v, WorldParams& p) {
+  v("model", p.model_path);
+  v("target", p.target_path);
+  v("dt_ms", p.physics_dt_s, 1e-3);
+  v("ground_seed", p.ground_seed);
+  v.nested("light", p.light);
+}
+
+// Converts between MuJoCo's camera frame (looks along -z, y up) and the OpenCV frame C
+// (x right, y down, z along the optical axis): R_mj_C = diag(1, -1, -1). Written once here.
+Eigen::Matrix3d R_mujocoCam_opencvCam();
+
+class World {
+ public:
+  // Loads the MJCF, applies the camera model (fovy from fy) and fills the textures. Throws
+  // ConfigError for a missing/unreadable model or target, MujocoError for a model MuJoCo
+  // rejects, with the file named.
+  World(const WorldParams& params, const CameraModel& camera);
+  ~World();
+  World(const World&) = delete;
+  World& operator=(const World&) = delete;
+
+  const mjModel* model() const { return m_; }
+  mjModel* model() { return m_; }
+  mjData* data() { return d_; }
+  const mjData* data() const { return d_; }
+  const TargetGeometry& target() const { return target_; }
+  const CameraModel& camera() const { return camera_; }
+  double time() const { return d_->time; }
+
+  // MuJoCo ids used by the simulator.
+  int vehicle_body() const { return vehicle_body_; }
+  int camera_id() const { return camera_id_; }
+  int platform_site() const { return platform_site_; }
+  int rotor_site(int k) const { return rotor_sites_[k]; }
+  int cart_body() const { return cart_body_; }
+  int vehicle_qpos_adr() const { return vehicle_qpos_; }  ///< first qpos of the free joint
+  int vehicle_dof_adr() const { return vehicle_qvel_; }   ///< first dof of the free joint
+
+  // Truth (never handed to the estimator or controller).
+  Eigen::Isometry3d X_WB() const;  ///< vehicle body pose
+  Eigen::Isometry3d X_WC() const;  ///< camera pose, OpenCV convention
+  Eigen::Isometry3d X_WP() const;  ///< platform frame P
+  Eigen::Vector3d v_WB() const;    ///< vehicle linear velocity in W (m/s)
+  Eigen::Vector3d omega_B() const; ///< vehicle angular velocity in B (rad/s)
+
+  // Kinematic placement (scripted runs, tests): sets the free joint state and recomputes
+  // positions (mj_forward). v and omega only matter to sensors that read velocities.
+  void set_vehicle_state(const Eigen::Isometry3d& X_WB, const Eigen::Vector3d& v_W,
+                         const Eigen::Vector3d& omega_B);
+  // Cart joint state: position (x, y) in W (m), yaw (rad), and rates.
+  void set_cart_state(const Eigen::Vector3d& q_xy_yaw, const Eigen::Vector3d& qd);
+  Eigen::Vector3d cart_q() const;   ///< (x, y, yaw)
+  Eigen::Vector3d cart_qd() const;  ///< rates
+  int cart_dof(int i) const { return cart_dof_[i]; }
+  void forward();
+  // True when every position and velocity of the physics state is finite.
+  bool state_finite() const;
+
+  // Grows MuJoCo's offscreen buffer to hold a width x height render (call before the
+  // renderer is created). Throws ConfigError beyond kMaxRenderSidePx (camera.h).
+  void reserve_offscreen(int width_px, int height_px);
+
+  // Fills a model texture with a BGR image (same size as the placeholder). Call before the
+  // renderer is created (textures are uploaded when the GL context is made).
+  void set_texture(const std::string& name, const cv::Mat& bgr);
+
+  // Distance (m) from point p_W along direction dir_W to the first geom (ground, platform,
+  // anything with a collision group), excluding the vehicle itself; -1 if none within 100 m.
+  double ray_distance(const Eigen::Vector3d& p_W, const Eigen::Vector3d& dir_W) const;
+
+ private:
+  mjModel* m_ = nullptr;
+  mjData* d_ = nullptr;
+  TargetGeometry target_;
+  CameraModel camera_;
+  int vehicle_body_ = -1, camera_id_ = -1, platform_site_ = -1, cart_body_ = -1;
+  int rotor_sites_[6] = {-1, -1, -1, -1, -1, -1};
+  int vehicle_qpos_ = -1, vehicle_qvel_ = -1;
+  int cart_qpos_[3] = {-1, -1, -1}, cart_dof_[3] = {-1, -1, -1};
+};
+
+// The procedural ground texture: asphalt-like value noise with patches (non-uniform), BGR.
+cv::Mat make_ground_texture(int size_px, std::uint64_t seed);
+
+}  // namespace lander::sim

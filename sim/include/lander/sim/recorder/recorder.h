@@ -1,0 +1,97 @@
+// The recorder: everything a run leaves behind, judged against the truth the simulator
+// keeps. trace.csv (truth beside the flight software's estimates), per-sensor and fused height
+// errors, vision counts, the landing judgement (contact, touchdown figures, outcome), the
+// videos and summary.json. It reads the flight stack's state only through its public
+// accessors and counts an estimate only once the flight software has one.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "lander/flight/flight_stack.h"
+#include "lander/sim/recorder/altitude_metrics.h"
+#include "lander/sim/sensors/camera.h"
+#include "lander/sim/util/output_files.h"
+#include "lander/sim/render/renderer.h"
+#include "lander/sim/run.h"
+#include "lander/sim/scenario.h"
+#include "lander/sim/sensors/sensors.h"
+#include "lander/sim/util/stats.h"
+#include "lander/sim/plant/truth.h"
+#include "lander/sim/render/video.h"
+#include "lander/sim/plant/world.h"
+
+namespace lander::sim {
+
+// How a run ended: "landed", "tipped_over", "touched_ground", "diverged", "timeout", and a
+// sentence saying why.
+struct Outcome {
+  std::string name;
+  std::string detail;
+};
+
+// Contact and the landing's verdict, from MuJoCo's contacts and the vehicle's truth.
+class LandingJudge {
+ public:
+  explicit LandingJudge(const World& world);
+  // After each physics step (time tn): records the first contact's touchdown figures and
+  // returns the outcome once the run is decided (landed: resting on the platform, motors cut,
+  // upright, for 1 s; tipped over; on the ground).
+  std::optional<Outcome> update(double tn, const VehicleTruth& truth, const ctl::LandingController& c);
+  const nlohmann::ordered_json& touchdown() const { return touchdown_; }
+  double t_first_contact_s() const { return t_first_contact_; }  ///< < 0 before contact
+
+ private:
+  const World& world_;
+  int skid_left_, skid_right_, platform_geom_, ground_geom_;
+  double t_first_contact_{-1.0}, t_landed_confirm_{-1.0};
+  bool touched_ground_{false};
+  nlohmann::ordered_json touchdown_ = nlohmann::ordered_json::object();
+};
+
+class Recorder {
+ public:
+  // Opens trace.csv (and the videos when o.video) in o.out_dir.
+  Recorder(const Scenario& s, const RunOptions& o, World& world, Renderer& renderer);
+
+  // A finished camera frame, the flight software's detection and the result it will deliver
+  // (before any corruption hook): vision counts, the vision height error, video frames.
+  void on_frame(const CameraFrame& frame, const RingDetection& det, const flight::VisionResult& vr,
+                const flight::FlightStack& fs);
+  // The samples taken at truth.t_s, as the sensors measured them: per-sensor height errors.
+  void on_samples(const SensorSuite::Sampled& smp, const VehicleTruth& truth);
+  // After the step k (time truth.t_s) and the flight software's updates: fused-height errors,
+  // the landing judgement, a trace row when due. Returns the outcome when the run ends here
+  // (no trace row then).
+  std::optional<Outcome> on_step(int k, const VehicleTruth& truth, const flight::FlightStack& fs,
+                                 const RotorArray& rotor_speeds_radps);
+  void count_outlier_injected() { ++outliers_injected_; }
+  int outliers_injected() const { return outliers_injected_; }
+
+  // Closes the trace and videos and fills summary.json's landing, vision, sample and altitude
+  // sections.
+  void finish(const Outcome& outcome, const flight::FlightStack& fs, nlohmann::ordered_json& summary);
+
+ private:
+  const Scenario& s_;
+  World& world_;
+  Renderer& renderer_;
+  bool video_;
+  int video_w_, video_h_;
+  std::unique_ptr<VideoWriter> cam_video_, chase_video_;
+  CsvWriter trace_;
+  int trace_every_;
+  LandingJudge judge_;
+  int frames_ = 0, detections_ = 0, keyframes_ = 0, keyframes_rejected_ = 0;
+  int outliers_injected_ = 0;
+  bool last_detected_ = false;
+  std::map<std::string, int> not_detected_reasons_;
+  ErrorStats fused_z_err_, fused_h_err_;
+  AltitudeMetrics alt_metrics_;  // per-sensor height errors against truth (seed 004 figures)
+};
+
+}  // namespace lander::sim

@@ -1,0 +1,70 @@
+// Offscreen rendering of MuJoCo cameras into OpenCV images. The render path does MuJoCo's
+// render, readPixels and one flip+RGB->BGR pass, nothing else.
+#pragma once
+
+#include <memory>
+
+#include <mujoco/mujoco.h>
+#include <opencv2/core.hpp>
+
+#include "lander/estimator/params_io.h"
+#include "lander/sim/render/gl_context.h"
+
+namespace lander::sim {
+
+struct RenderParams {
+  std::string backend{"auto"};  ///< GL backend: auto (EGL, then OSMesa), egl, osmesa
+  int msaa_samples{0};          ///< multisample anti-aliasing samples (0 = off; see README)
+  bool shadows{false};          ///< the sun casts shadows (the vehicle's and the cart's on the
+                                ///< rings): shadow mapping, costly on llvmpipe (README)
+  void validate() const {
+    require(backend == "auto" || backend == "egl" || backend == "osmesa", "backend",
+            "must be auto, egl or osmesa (got '" + backend + "')");
+    require(msaa_samples >= 0 && msaa_samples <= 16, "msaa_samples", "must be in [0, 16]");
+  }
+};
+
+template <class V>
+void visit_fields(V& v, RenderParams& p) {
+  v("backend", p.backend);
+  v("msaa_samples", p.msaa_samples);
+  v("shadows", p.shadows);
+}
+
+class Renderer {
+ public:
+  // Creates the GL context and MuJoCo's rendering context (uploads the model's textures, so
+  // fill them before). Throws GlError if no backend starts.
+  Renderer(const mjModel* m, const RenderParams& params);
+  ~Renderer();
+  Renderer(const Renderer&) = delete;
+  Renderer& operator=(const Renderer&) = delete;
+
+  // Renders model camera `cam_id` at the current mjData state into `bgr` (CV_8UC3,
+  // width x height, row 0 = top of the image). `width`/`height` must not exceed the model's
+  // offwidth/offheight.
+  void render_camera(const mjModel* m, mjData* d, int cam_id, int width, int height,
+                     cv::Mat& bgr);
+  // Same for a free (tracking) camera, e.g. the chase view.
+  void render_free(const mjModel* m, mjData* d, const mjvCamera& cam, int width, int height,
+                   cv::Mat& bgr);
+
+  // Re-uploads model texture `tex_id` after its pixels changed (World::set_texture).
+  void upload_texture(const mjModel* m, int tex_id);
+
+  std::string backend_description() const { return gl_->description(); }
+
+ private:
+  void render(const mjModel* m, mjData* d, mjvCamera& cam, int width, int height, cv::Mat& bgr);
+  // Creates MuJoCo's GL context (uploads every texture) with the configured MSAA.
+  void make_context(const mjModel* m);
+
+  std::unique_ptr<GlContext> gl_;
+  RenderParams params_;
+  mjvScene scene_;
+  mjrContext context_;
+  mjvOption option_;
+  std::vector<unsigned char> rgb_;
+};
+
+}  // namespace lander::sim

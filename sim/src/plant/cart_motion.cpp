@@ -1,0 +1,79 @@
+#include "lander/sim/plant/cart_motion.h"
+
+#include <cmath>
+
+namespace lander::sim {
+
+void CartMotionParams::validate() const {
+  require(path == "static" || path == "straight" || path == "arc", "path",
+          "must be static, straight or arc (got '" + path + "')");
+  require(speed_profile == "constant" || speed_profile == "stop_and_go", "speed_profile",
+          "must be constant or stop_and_go (got '" + speed_profile + "')");
+  require(speed_mps >= 0 && speed_mps <= 5, "speed_mps", "must be in [0, 5]");
+  require(platform_height_m >= 0.4 && platform_height_m <= 2.0, "platform_height_m",
+          "must be in [0.4, 2.0] m (the platform sits on the cart's posts)");
+  require(path != "arc" || std::abs(turn_radius_m) >= 2, "turn_radius_m",
+          "|radius| must be >= 2 m");
+  require(accel_mps2 > 0 && accel_mps2 <= 5, "accel_mps2", "must be in (0, 5]");
+  require(go_s >= 0, "go_s", "must be >= 0");
+  require(stop_s >= 0, "stop_s", "must be >= 0");
+  require(start_delay_s >= 0, "start_delay_s", "must be >= 0");
+}
+
+namespace {
+
+// Distance travelled s(t) and its derivatives for the speed profile.
+void speed_profile(const CartMotionParams& p, double t, double& s, double& sd, double& sdd) {
+  s = sd = sdd = 0.0;
+  if (p.path == "static" || t < p.start_delay_s) return;  // constant: moving from t = 0
+  t -= p.start_delay_s;
+  const double v = p.speed_mps;
+  if (p.speed_profile == "constant") {
+    s = v * t;
+    sd = v;
+    return;
+  }
+  // Stop and go: accelerate (ta), cruise (go_s), brake (ta), stand (stop_s), repeat.
+  const double a = p.accel_mps2, ta = v / a;
+  const double period = 2 * ta + p.go_s + p.stop_s;
+  const double per_cycle = v * ta + v * p.go_s;  // distance of one cycle
+  const double n = std::floor(t / period);
+  double tc = t - n * period;
+  s = n * per_cycle;
+  if (tc < ta) {
+    s += 0.5 * a * tc * tc;
+    sd = a * tc;
+    sdd = a;
+  } else if ((tc -= ta) < p.go_s) {
+    s += 0.5 * v * ta + v * tc;
+    sd = v;
+  } else if ((tc -= p.go_s) < ta) {
+    s += 0.5 * v * ta + v * p.go_s + v * tc - 0.5 * a * tc * tc;
+    sd = v - a * tc;
+    sdd = -a;
+  } else {
+    s += per_cycle;
+  }
+}
+
+}  // namespace
+
+CartReference cart_reference(const CartMotionParams& p, double t_s) {
+  double s, sd, sdd;
+  speed_profile(p, t_s, s, sd, sdd);
+  const double k = p.path == "arc" ? 1.0 / p.turn_radius_m : 0.0;  // curvature (1/m)
+  const double h0 = p.heading_rad, h = h0 + k * s;
+  CartReference r;
+  if (k == 0.0) {
+    r.q << p.start_m.x() + s * std::cos(h0), p.start_m.y() + s * std::sin(h0), h0;
+  } else {
+    r.q << p.start_m.x() + (std::sin(h) - std::sin(h0)) / k,
+        p.start_m.y() - (std::cos(h) - std::cos(h0)) / k, h;
+  }
+  const Eigen::Vector2d t_hat(std::cos(h), std::sin(h)), n_hat(-std::sin(h), std::cos(h));
+  r.qd << sd * t_hat, k * sd;
+  r.qdd << sdd * t_hat + sd * sd * k * n_hat, k * sdd;
+  return r;
+}
+
+}  // namespace lander::sim

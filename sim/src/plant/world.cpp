@@ -1,0 +1,227 @@
+#include "lander/sim/plant/world.h"
+
+#include <cmath>
+#include <fstream>
+
+#include <opencv2/imgproc.hpp>
+
+#include "lander/sim/plant/mujoco_errors.h"
+
+namespace lander::sim {
+
+Eigen::Matrix3d R_mujocoCam_opencvCam() { return Eigen::Vector3d(1, -1, -1).asDiagonal(); }
+
+namespace {
+
+int require_id(const mjModel* m, mjtObj type, const char* name, const std::string& file) {
+  const int id = mj_name2id(m, type, name);
+  if (id < 0) throw ConfigError(file + ": model has no " + std::string(mju_type2Str(type)) +
+                                " named '" + name + "'");
+  return id;
+}
+
+Eigen::Isometry3d pose_from(const mjtNum* pos, const mjtNum* mat) {
+  Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+  X.translation() = Eigen::Vector3d(pos[0], pos[1], pos[2]);
+  X.linear() = Eigen::Map<const Eigen::Matrix<mjtNum, 3, 3, Eigen::RowMajor>>(mat);
+  return X;
+}
+
+}  // namespace
+
+World::World(const WorldParams& params, const CameraModel& camera) : camera_(camera) {
+  params.validate();
+  camera.validate();
+  install_mujoco_handlers();
+  if (!std::ifstream(params.model_path)) {
+    throw ConfigError(params.model_path + ": cannot open model file");
+  }
+  target_ = TargetGeometry::load(params.target_path);
+  char err[1024] = "";
+  try {
+    m_ = mj_loadXML(params.model_path.c_str(), nullptr, err, sizeof(err));
+  } catch (const MujocoError& e) {
+    throw ConfigError(params.model_path + ": " + e.what());
+  }
+  if (!m_) throw ConfigError(params.model_path + ": MuJoCo cannot load the model: " + err);
+  d_ = mj_makeData(m_);
+  m_->opt.timestep = params.physics_dt_s;
+  const std::string& f = params.model_path;
+  vehicle_body_ = require_id(m_, mjOBJ_BODY, "hexarotor", f);
+  cart_body_ = require_id(m_, mjOBJ_BODY, "cart", f);
+  camera_id_ = require_id(m_, mjOBJ_CAMERA, "downcam", f);
+  platform_site_ = require_id(m_, mjOBJ_SITE, "platform_P", f);
+  for (int k = 0; k < 6; ++k) {
+    rotor_sites_[k] = require_id(m_, mjOBJ_SITE, ("rotor" + std::to_string(k)).c_str(), f);
+  }
+  const int free = require_id(m_, mjOBJ_JOINT, "hexarotor_free", f);
+  vehicle_qpos_ = m_->jnt_qposadr[free];
+  vehicle_qvel_ = m_->jnt_dofadr[free];
+  const char* cart_joints[3] = {"cart_x", "cart_y", "cart_yaw"};
+  for (int i = 0; i < 3; ++i) {
+    const int j = require_id(m_, mjOBJ_JOINT, cart_joints[i], f);
+    cart_qpos_[i] = m_->jnt_qposadr[j];
+    cart_dof_[i] = m_->jnt_dofadr[j];
+  }
+  // The MuJoCo camera renders a centred pinhole; its fovy fixes fy = (H / 2) / tan(fovy / 2).
+  // Off-centre principal points and distortion are applied after rendering (camera.cpp).
+  const cv::Size render = pinhole_render_size(camera_);
+  m_->cam_fovy[camera_id_] = 2.0 * std::atan(0.5 * render.height / camera_.fy_px) * 180.0 / M_PI;
+  reserve_offscreen(render.width, render.height);
+  if (m_->vis.global.offwidth > kMaxRenderSidePx || m_->vis.global.offheight > kMaxRenderSidePx) {
+    throw ConfigError(params.model_path + ": <visual><global offwidth/offheight> " +
+                      std::to_string(m_->vis.global.offwidth) + "x" +
+                      std::to_string(m_->vis.global.offheight) + " exceeds the offscreen limit " +
+                      std::to_string(kMaxRenderSidePx) + " px");
+  }
+
+  set_texture("target_tex", render_target_texture(target_));
+  const int ground_tex = mj_name2id(m_, mjOBJ_TEXTURE, "ground_tex");
+  if (ground_tex >= 0) {
+    set_texture("ground_tex", make_ground_texture(m_->tex_width[ground_tex], params.ground_seed));
+  }
+  mj_forward(m_, d_);
+}
+
+void World::reserve_offscreen(int width_px, int height_px) {
+  if (width_px > kMaxRenderSidePx || height_px > kMaxRenderSidePx) {
+    throw ConfigError("render size " + std::to_string(width_px) + "x" +
+                      std::to_string(height_px) + " exceeds the offscreen limit " +
+                      std::to_string(kMaxRenderSidePx) + " px");
+  }
+  m_->vis.global.offwidth = std::max(m_->vis.global.offwidth, width_px);
+  m_->vis.global.offheight = std::max(m_->vis.global.offheight, height_px);
+}
+
+World::~World() {
+  if (d_) mj_deleteData(d_);
+  if (m_) mj_deleteModel(m_);
+}
+
+void World::set_texture(const std::string& name, const cv::Mat& bgr) {
+  const int id = mj_name2id(m_, mjOBJ_TEXTURE, name.c_str());
+  if (id < 0) throw ConfigError("model has no texture named '" + name + "'");
+  const int w = m_->tex_width[id], h = m_->tex_height[id];
+  if (bgr.cols != w || bgr.rows != h || bgr.type() != CV_8UC3) {
+    throw ConfigError("texture '" + name + "' is " + std::to_string(w) + "x" + std::to_string(h) +
+                      " in the model, image is " + std::to_string(bgr.cols) + "x" +
+                      std::to_string(bgr.rows));
+  }
+  // MuJoCo stores RGB rows; row 0 of the image becomes texture row 0.
+  unsigned char* dst = m_->tex_rgb + m_->tex_adr[id];
+  for (int r = 0; r < h; ++r) {
+    cv::Mat row(1, w, CV_8UC3, dst + static_cast<std::size_t>(r) * w * 3);
+    cv::cvtColor(bgr.row(r), row, cv::COLOR_BGR2RGB);
+  }
+}
+
+Eigen::Isometry3d World::X_WB() const {
+  return pose_from(d_->xpos + 3 * vehicle_body_, d_->xmat + 9 * vehicle_body_);
+}
+
+Eigen::Isometry3d World::X_WC() const {
+  Eigen::Isometry3d X = pose_from(d_->cam_xpos + 3 * camera_id_, d_->cam_xmat + 9 * camera_id_);
+  X.linear() = X.linear() * R_mujocoCam_opencvCam();
+  return X;
+}
+
+Eigen::Isometry3d World::X_WP() const {
+  return pose_from(d_->site_xpos + 3 * platform_site_, d_->site_xmat + 9 * platform_site_);
+}
+
+Eigen::Vector3d World::v_WB() const {
+  return Eigen::Vector3d(d_->qvel[vehicle_qvel_], d_->qvel[vehicle_qvel_ + 1],
+                         d_->qvel[vehicle_qvel_ + 2]);
+}
+
+Eigen::Vector3d World::omega_B() const {
+  // MuJoCo's free joint angular velocity is expressed in the body frame.
+  return Eigen::Vector3d(d_->qvel[vehicle_qvel_ + 3], d_->qvel[vehicle_qvel_ + 4],
+                         d_->qvel[vehicle_qvel_ + 5]);
+}
+
+void World::set_vehicle_state(const Eigen::Isometry3d& X_WB, const Eigen::Vector3d& v_W,
+                              const Eigen::Vector3d& omega_B) {
+  const Eigen::Quaterniond q(X_WB.linear());
+  mjtNum* qp = d_->qpos + vehicle_qpos_;
+  qp[0] = X_WB.translation().x();
+  qp[1] = X_WB.translation().y();
+  qp[2] = X_WB.translation().z();
+  qp[3] = q.w();
+  qp[4] = q.x();
+  qp[5] = q.y();
+  qp[6] = q.z();
+  mjtNum* qv = d_->qvel + vehicle_qvel_;
+  for (int i = 0; i < 3; ++i) {
+    qv[i] = v_W[i];
+    qv[3 + i] = omega_B[i];
+  }
+}
+
+void World::set_cart_state(const Eigen::Vector3d& q, const Eigen::Vector3d& qd) {
+  for (int i = 0; i < 3; ++i) {
+    d_->qpos[cart_qpos_[i]] = q[i];
+    d_->qvel[cart_dof_[i]] = qd[i];
+  }
+}
+
+Eigen::Vector3d World::cart_q() const {
+  return {d_->qpos[cart_qpos_[0]], d_->qpos[cart_qpos_[1]], d_->qpos[cart_qpos_[2]]};
+}
+
+Eigen::Vector3d World::cart_qd() const {
+  return {d_->qvel[cart_dof_[0]], d_->qvel[cart_dof_[1]], d_->qvel[cart_dof_[2]]};
+}
+
+void World::forward() { mj_forward(m_, d_); }
+
+bool World::state_finite() const {
+  for (int i = 0; i < m_->nq; ++i) {
+    if (!std::isfinite(d_->qpos[i])) return false;
+  }
+  for (int i = 0; i < m_->nv; ++i) {
+    if (!std::isfinite(d_->qvel[i])) return false;
+  }
+  return true;
+}
+
+double World::ray_distance(const Eigen::Vector3d& p_W, const Eigen::Vector3d& dir_W) const {
+  mjtNum pnt[3] = {p_W.x(), p_W.y(), p_W.z()};
+  Eigen::Vector3d u = dir_W.normalized();
+  mjtNum vec[3] = {u.x(), u.y(), u.z()};
+  int geomid = -1;
+  // Only geoms that collide (group 0..2, include static), excluding the vehicle's body.
+  const mjtByte groups[mjNGROUP] = {1, 1, 1, 0, 0, 0};
+  const mjtNum dist = mj_ray(m_, d_, pnt, vec, groups, 1, vehicle_body_, &geomid);
+  if (dist < 0 || dist > 100.0) return -1.0;
+  return dist;
+}
+
+cv::Mat make_ground_texture(int size_px, std::uint64_t seed) {
+  // Sum of value-noise octaves (asphalt grain + larger stains), in grey with a slight tint.
+  cv::Mat acc(size_px, size_px, CV_32F, cv::Scalar(0));
+  cv::RNG rng(seed);
+  float amplitude = 0.5f, total = 0.f;
+  for (int cells = 8; cells <= size_px; cells *= 4) {
+    cv::Mat small(cells, cells, CV_32F);
+    rng.fill(small, cv::RNG::UNIFORM, 0.0, 1.0);
+    // Wrap-around so the tile repeats seamlessly: pad, resize, crop.
+    cv::Mat padded;
+    cv::copyMakeBorder(small, padded, 1, 1, 1, 1, cv::BORDER_WRAP);
+    cv::Mat big;
+    const int scale = size_px / cells;
+    cv::resize(padded, big, cv::Size((cells + 2) * scale, (cells + 2) * scale), 0, 0,
+               cv::INTER_CUBIC);
+    acc += amplitude * big(cv::Rect(scale, scale, size_px, size_px));
+    total += amplitude;
+    amplitude *= 0.6f;
+  }
+  acc /= total;
+  cv::Mat grey;
+  acc.convertTo(grey, CV_8U, 110.0, 40.0);  // mid-dark grey, contrast about 0.3
+  cv::Mat bgr;
+  cv::merge(std::vector<cv::Mat>{grey, grey + 4, grey + 8}, bgr);
+  return bgr;
+}
+
+}  // namespace lander::sim

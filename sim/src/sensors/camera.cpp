@@ -1,0 +1,188 @@
+#include "lander/sim/sensors/camera.h"
+
+#include <chrono>
+
+#include <cmath>
+#include <stdexcept>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "lander/sim/render/renderer.h"
+#include "lander/sim/plant/world.h"
+
+namespace lander::sim {
+
+std::vector<double> exposure_sample_times(const CameraParams& p, double t_start_s,
+                                          double physics_dt_s) {
+  std::vector<double> t;
+  const int n = p.blur_samples;
+  for (int i = 0; i < n; ++i) {
+    const double ti = t_start_s + (i + 0.5) * p.exposure_s / n;
+    t.push_back(std::round(ti / physics_dt_s) * physics_dt_s);
+  }
+  return t;
+}
+
+namespace {
+
+// Undistorted normalised coordinates of pixels (u, v) of camera c (OpenCV's iterative inverse
+// of the Brown-Conrady model).
+std::vector<cv::Point2f> undistorted_normalised(const CameraModel& c, const std::vector<cv::Point2f>& px) {
+  const cv::Matx33d K(c.fx_px, 0, c.cx_px, 0, c.fy_px, c.cy_px, 0, 0, 1);
+  const cv::Vec<double, 5> D(c.k1, c.k2, c.p1, c.p2, c.k3);
+  std::vector<cv::Point2f> norm;
+  cv::undistortPoints(px, norm, K, D, cv::noArray(), cv::noArray(),
+                      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 1e-6));
+  return norm;
+}
+
+bool needs_remap(const CameraModel& c) {
+  const double cx0 = 0.5 * (c.width_px - 1), cy0 = 0.5 * (c.height_px - 1);
+  return c.has_distortion() || std::abs(c.cx_px - cx0) > 1e-9 || std::abs(c.cy_px - cy0) > 1e-9 ||
+         std::abs(c.fx_px - c.fy_px) > 1e-9;
+}
+
+}  // namespace
+
+cv::Size pinhole_render_size(const CameraModel& c) {
+  if (!needs_remap(c)) return {c.width_px, c.height_px};
+  // The rays of the image's border pixels: the pinhole render (focal length fy, centred) must
+  // reach the farthest of them (barrel distortion and an off-centre principal point look
+  // outside the camera-sized pinhole view).
+  std::vector<cv::Point2f> border;
+  for (int u = 0; u < c.width_px; ++u) {
+    border.emplace_back(u, 0);
+    border.emplace_back(u, c.height_px - 1);
+  }
+  for (int v = 0; v < c.height_px; ++v) {
+    border.emplace_back(0, v);
+    border.emplace_back(c.width_px - 1, v);
+  }
+  double ex = 0, ey = 0;
+  for (const cv::Point2f& n : undistorted_normalised(c, border)) {
+    ex = std::max(ex, std::abs(c.fy_px * n.x));
+    ey = std::max(ey, std::abs(c.fy_px * n.y));
+  }
+  // Half-sizes (w - 1) / 2 >= extent + 1 px of margin for the bilinear lookup; same parity.
+  auto side = [](int n, double extent) {
+    const double need = 2.0 * (extent + 1.0) + 1.0;
+    int out = n;
+    while (out < need) out += 2;
+    return std::min(out, kMaxRenderSidePx);
+  };
+  return {side(c.width_px, ex), side(c.height_px, ey)};
+}
+
+CameraPipeline::CameraPipeline(const CameraParams& params, std::uint64_t seed)
+    : params_(params), seed_(seed) {
+  params.validate();
+  const CameraModel& c = params.intrinsics;
+  render_size_ = pinhole_render_size(c);
+  needs_remap_ = needs_remap(c);
+  if (needs_remap_) {
+    // For every output (distorted) pixel, find where its ray lands in the pinhole render:
+    // undistort to normalised coordinates, then project with the render's K (fy, centred:
+    // MuJoCo renders square pixels with the principal point at the image centre, (w - 1) / 2
+    // and (h - 1) / 2 in OpenCV's pixel-centre convention).
+    const double cx0 = 0.5 * (render_size_.width - 1), cy0 = 0.5 * (render_size_.height - 1);
+    std::vector<cv::Point2f> pts;
+    pts.reserve(static_cast<std::size_t>(c.width_px) * c.height_px);
+    for (int v = 0; v < c.height_px; ++v) {
+      for (int u = 0; u < c.width_px; ++u) pts.emplace_back(u, v);
+    }
+    const std::vector<cv::Point2f> norm = undistorted_normalised(c, pts);
+    map_x_.create(c.height_px, c.width_px, CV_32F);
+    map_y_.create(c.height_px, c.width_px, CV_32F);
+    for (int v = 0, i = 0; v < c.height_px; ++v) {
+      for (int u = 0; u < c.width_px; ++u, ++i) {
+        map_x_.at<float>(v, u) = static_cast<float>(c.fy_px * norm[i].x + cx0);
+        map_y_.at<float>(v, u) = static_cast<float>(c.fy_px * norm[i].y + cy0);
+      }
+    }
+  }
+}
+
+void CameraPipeline::begin(double t_start_s) {
+  t_start_ = t_start_s;
+  count_ = 0;
+  accum_.release();
+}
+
+void CameraPipeline::add(const cv::Mat& render_bgr) {
+  if (count_ == 0) {
+    render_bgr.copyTo(first_);  // stays 8-bit unless more renders or post-processing follow
+  } else {
+    if (count_ == 1) first_.convertTo(accum_, CV_32FC3);
+    cv::accumulate(render_bgr, accum_);
+  }
+  ++count_;
+}
+
+CameraFrame CameraPipeline::finish(int index, const Eigen::Isometry3d& X_WC_mid) {
+  if (count_ == 0) throw std::logic_error("CameraPipeline::finish without a render");
+  CameraFrame f;
+  f.index = index;
+  f.exposure.t_start_s = t_start_;
+  f.exposure.t_end_s = t_start_ + params_.exposure_s;
+  f.X_WC_true = X_WC_mid;
+  if (count_ == 1 && !needs_remap_ && params_.read_noise_dn <= 0 && params_.gain == 1.0) {
+    f.bgr = first_.clone();  // plain frame: the render itself
+    return f;
+  }
+  cv::Mat mean;
+  if (count_ == 1) {
+    first_.convertTo(mean, CV_32FC3);
+  } else {
+    mean = accum_ * (1.0 / count_);
+  }
+  if (needs_remap_) {
+    cv::Mat remapped;
+    cv::remap(mean, remapped, map_x_, map_y_, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
+    mean = remapped;
+  }
+  if (params_.gain != 1.0) mean *= params_.gain;  // exposure x gain; saturates below
+  if (params_.read_noise_dn > 0) {
+    cv::Mat noise(mean.size(), CV_32FC3);
+    cv::RNG rng(seed_ ^ (0x9E3779B97F4A7C15ull * static_cast<std::uint64_t>(index + 1)));
+    rng.fill(noise, cv::RNG::NORMAL, 0.0, params_.read_noise_dn);
+    mean += noise;
+  }
+  mean.convertTo(f.bgr, CV_8UC3);  // rounds and saturates
+  return f;
+}
+
+CameraRig::CameraRig(const CameraParams& params, std::uint64_t seed, double physics_dt_s)
+    : pipeline_(params, seed), dt_(physics_dt_s), period_(1.0 / params.rate_hz) {}
+
+std::optional<CameraFrame> CameraRig::advance(double t_s, World& world, Renderer& renderer,
+                                              double* render_ms) {
+  const CameraParams& p = pipeline_.params();
+  if (!exposing_ && t_s + 1e-9 >= next_frame_t_) {
+    exposing_ = true;
+    pipeline_.begin(t_s);
+    sample_times_ = exposure_sample_times(p, t_s, dt_);
+    next_sample_ = 0;
+  }
+  if (!exposing_) return std::nullopt;
+  while (next_sample_ < sample_times_.size() && sample_times_[next_sample_] <= t_s + 1e-9) {
+    const auto t0 = std::chrono::steady_clock::now();
+    renderer.render_camera(world.model(), world.data(), world.camera_id(),
+                           pipeline_.render_size().width, pipeline_.render_size().height, render_);
+    pipeline_.add(render_);
+    if (render_ms) {
+      *render_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    }
+    ++next_sample_;
+  }
+  if (next_sample_ < sample_times_.size() || t_s + 1e-9 < next_frame_t_ + p.exposure_s) {
+    return std::nullopt;
+  }
+  CameraFrame frame = pipeline_.finish(frame_index_, world.X_WC());
+  exposing_ = false;
+  ++frame_index_;
+  next_frame_t_ += period_;
+  return frame;
+}
+
+}  // namespace lander::sim

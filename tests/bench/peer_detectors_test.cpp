@@ -1,0 +1,196 @@
+// Peer detectors (AprilTag tag36h11, ArUco) on synthetic platform views with exact geometry.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <string>
+
+#include "common/json_checks.h"
+#include "lander/estimator/vision_detector.h"
+#include "lander/bench/estimator_bench.h"
+#include "lander/bench/peer_detectors.h"
+
+namespace lander::bench {
+
+namespace {
+
+// Corner error on exact warped views: both detectors fit lines to the marker edges; 0.25 px
+// is a quarter pixel, well above their sub-pixel line-fit error on noise-free edges and well
+// below the 0.5 px of an uncorrected AprilTag convention offset (which this test must catch).
+constexpr double kCornerTolPx = 0.25;
+// ArUco CORNER_REFINE_SUBPIX runs cv::cornerSubPix, which models an X-junction (chessboard
+// corner); at a marker's L-shaped outer corner under perspective its fixed point is biased by
+// up to about half a pixel, measured here as 0.26-0.42 px. A property of the peer, reported by
+// the benchmark; bounded here so that a wrong corner order or convention still fails.
+constexpr double kArucoSubpixCornerTolPx = 0.5;
+// ArUco without refinement reports contour-polygon corners: integer-ish, up to ~1 px off.
+constexpr double kUnrefinedCornerTolPx = 1.5;
+// Position error per metre of distance for a 1.2 m square from four corners within
+// kCornerTolPx at fx = 640: 0.25 px / 640 px * d, times ~3 for the geometry; scaled by the
+// corner tolerance for ArUco subpix.
+constexpr double kPosTolPerMetre = 1.5e-3;
+constexpr double kArucoPosTolPerMetre = kPosTolPerMetre * kArucoSubpixCornerTolPx / kCornerTolPx;
+
+const TargetGeometry& target() {
+  static const TargetGeometry g = TargetGeometry::load(LANDER_MODELS_DIR "/target.yaml");
+  return g;
+}
+
+Eigen::Isometry3d look_at(double h, double tilt_deg, double yaw_deg) {
+  const double th = tilt_deg * M_PI / 180, yaw = yaw_deg * M_PI / 180;
+  const Eigen::Vector3d d(std::sin(th), 0, std::cos(th));
+  const Eigen::Vector3d z = -d;
+  Eigen::Vector3d x0 = Eigen::Vector3d::UnitY().cross(z).normalized();
+  const Eigen::Vector3d y0 = z.cross(x0);
+  const Eigen::Vector3d x = std::cos(yaw) * x0 + std::sin(yaw) * y0;
+  Eigen::Isometry3d X_PC = Eigen::Isometry3d::Identity();
+  X_PC.linear() << x, z.cross(x), z;
+  X_PC.translation() = (h / std::cos(th)) * d;
+  return X_PC.inverse();
+}
+
+std::array<Eigen::Vector2d, 4> true_corners(const CameraModel& cam, const Eigen::Isometry3d& X) {
+  std::array<Eigen::Vector2d, 4> out;
+  const auto cP = marker_corners_P(target());
+  for (int i = 0; i < 4; ++i) {
+    const Eigen::Vector3d p = cam.K() * (X * Eigen::Vector3d(cP[i].x(), cP[i].y(), 0));
+    out[i] = p.head<2>() / p.z();
+  }
+  return out;
+}
+
+double rot_err(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return Eigen::AngleAxisd(a.linear().transpose() * b.linear()).angle();
+}
+
+TEST(PeerDetectors, MarkerTexturesHaveTheLayout) {
+  const TargetGeometry& g = target();
+  EXPECT_NEAR(marker_side_m(g), 1.2, 1e-12);
+  for (auto kind : {MarkerKind::AprilTag, MarkerKind::Aruco}) {
+    const cv::Mat t = render_marker_texture(kind, g);
+    ASSERT_EQ(t.rows, g.texture_px);
+    ASSERT_EQ(t.cols, g.texture_px);
+    const int cell = g.texture_px / kMarkerGridCells;
+    // Two white margin cells, then the black border cell on every side.
+    EXPECT_EQ(t.at<cv::Vec3b>(cell, g.texture_px / 2)[0], 255) << to_string(kind);
+    EXPECT_EQ(t.at<cv::Vec3b>(2 * cell + cell / 2, g.texture_px / 2)[0], 0) << to_string(kind);
+    EXPECT_EQ(t.at<cv::Vec3b>(g.texture_px / 2, 2 * cell + cell / 2)[0], 0) << to_string(kind);
+  }
+}
+
+class PeerOnViews : public ::testing::TestWithParam<std::tuple<double, double, double>> {};
+
+// Given exact views of each marker, each detector finds id 0, its corners match the true
+// projections (AprilTag after the -0.5 px convention fix) and IPPE_SQUARE gives the pose.
+TEST_P(PeerOnViews, CornersAndPoseMatchTruth) {
+  const auto [h, tilt, yaw] = GetParam();
+  const TargetGeometry& g = target();
+  const CameraModel cam;
+  const Eigen::Isometry3d X = look_at(h, tilt, yaw);
+  const auto truth = true_corners(cam, X);
+  const double dist = X.translation().norm();
+
+  static const SyntheticPlatformView tag_view(render_marker_texture(MarkerKind::AprilTag, g), g);
+  static const SyntheticPlatformView aruco_view(render_marker_texture(MarkerKind::Aruco, g), g);
+  AprilTagDetector at;
+  const PeerDetection a = at.detect(tag_view.render(cam, X), cam, g);
+  ASSERT_TRUE(a.detected) << a.reason;
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_LT((a.corners_px[i] - truth[i]).norm(), kCornerTolPx) << "apriltag corner " << i;
+  }
+  EXPECT_LT((a.X_CP.translation() - X.translation()).norm(), kPosTolPerMetre * dist);
+  EXPECT_LT(rot_err(a.X_CP, X), 0.02);
+  EXPECT_GT(a.time_ms, 0.0);
+
+  const cv::Mat aimg = aruco_view.render(cam, X);
+  for (bool subpix : {false, true}) {
+    const PeerDetection r = detect_aruco(aimg, cam, g, subpix);
+    ASSERT_TRUE(r.detected) << r.reason << (subpix ? " (subpix)" : "");
+    for (int i = 0; i < 4; ++i) {
+      EXPECT_LT((r.corners_px[i] - truth[i]).norm(), subpix ? kArucoSubpixCornerTolPx : kUnrefinedCornerTolPx)
+          << "aruco corner " << i << (subpix ? " subpix" : "");
+    }
+    if (subpix) {
+      EXPECT_LT((r.X_CP.translation() - X.translation()).norm(), kArucoPosTolPerMetre * dist);
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Views, PeerOnViews,
+                         ::testing::Values(std::make_tuple(2.5, 0.0, 10.0),
+                                           std::make_tuple(2.5, 30.0, 70.0),
+                                           std::make_tuple(5.0, 45.0, 200.0),
+                                           std::make_tuple(10.0, 20.0, 300.0)));
+
+TEST(PeerDetectors, NothingOnEmptyOrRingFrames) {
+  const TargetGeometry& g = target();
+  const CameraModel cam;
+  const SyntheticPlatformView rings(render_marker_texture(MarkerKind::Rings, g), g);
+  const cv::Mat img = rings.render(cam, look_at(3.0, 10.0, 0.0));
+  AprilTagDetector at;
+  EXPECT_FALSE(at.detect(img, cam, g).detected);
+  EXPECT_FALSE(detect_aruco(img, cam, g, true).detected);
+  const cv::Mat grey(cam.height_px, cam.width_px, CV_8UC3, cv::Scalar::all(115));
+  EXPECT_FALSE(at.detect(grey, cam, g).detected);
+  EXPECT_FALSE(detect_aruco(grey, cam, g, false).detected);
+  EXPECT_FALSE(at.detect(cv::Mat(), cam, g).detected);
+  EXPECT_FALSE(detect_aruco(cv::Mat(), cam, g, false).detected);
+}
+
+// The synthetic view is exact: our ring detector finds the true pose in it.
+TEST(PeerDetectors, SyntheticViewIsGeometricallyExact) {
+  const TargetGeometry& g = target();
+  const CameraModel cam;
+  const SyntheticPlatformView rings(render_marker_texture(MarkerKind::Rings, g), g);
+  const Eigen::Isometry3d X = look_at(3.0, 25.0, 40.0);
+  const RingDetection d = detect_ring_target(rings.render(cam, X), cam, g, VisionParams{});
+  ASSERT_TRUE(d.detected) << d.reason;
+  EXPECT_LT((d.X_CP.translation() - X.translation()).norm(), 1e-3 * X.translation().norm());
+}
+
+// Given the synthetic renderer and a small sweep, the benchmark harness writes every metric
+// key of issue 3 for every method, detects all near views and reports no false positive on
+// frames without the target.
+TEST(EstimatorBench, SmallSyntheticSweepWritesAllKeys) {
+  const TargetGeometry& g = target();
+  const CameraModel cam;
+  Eigen::Isometry3d X_WP = Eigen::Isometry3d::Identity();
+  X_WP.translation() = Eigen::Vector3d(3.0, -2.0, 0.8);
+  X_WP.linear() = Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  EstimatorBenchParams p;
+  p.altitudes_m = {2.5, 5.0};
+  p.tilts_deg = {0.0, 30.0};
+  p.blur_px = {0.0};
+  p.yaws_per_view = 1;
+  p.empty_frames = 4;
+  const nlohmann::json j = test::parse_json(run_estimator_bench(
+      make_synthetic_bench_renderer(g, cam, X_WP), X_WP, g, cam, VisionParams{}, p));
+  for (const char* method : {"ours", "apriltag", "aruco", "aruco.subpix"}) {
+    for (const char* group : {"overall", "by_altitude_m", "by_blur_px"}) {
+      EXPECT_NO_THROW(test::at_path(j, std::string(method) + "." + group)) << method << group;
+    }
+    for (const char* key : {"detection_rate", "false_positive_rate", "centre_err_px_mean",
+                            "reproj_err_px_mean", "reproj_err_px_var", "pos_err_m_mean",
+                            "rot_err_deg_mean", "ms_per_frame_median"}) {
+      EXPECT_NO_THROW(test::at_path(j, std::string(method) + ".overall." + key))
+          << method << " " << key;
+      // Ours and AprilTag detect every view here: their figures are numbers, not null.
+      if (std::string(method) == "ours" || std::string(method) == "apriltag") {
+        EXPECT_NO_THROW(test::number_at(j, std::string(method) + ".overall." + key))
+            << method << " " << key;
+      }
+    }
+  }
+  EXPECT_NO_THROW(test::number_at(j, "ours.overall.ms_per_frame_median_tracking"));
+  EXPECT_TRUE(test::at_path(j, "ours.by_altitude_m").contains("2.5")) << j.dump();
+  EXPECT_DOUBLE_EQ(test::number_at(j, "ours.overall.detection_rate"), 1.0) << j.dump();
+  EXPECT_DOUBLE_EQ(test::number_at(j, "ours.overall.false_positive_rate"), 0.0);
+  EXPECT_DOUBLE_EQ(test::number_at(j, "apriltag.overall.detection_rate"), 1.0);
+  EXPECT_DOUBLE_EQ(test::number_at(j, "apriltag.overall.false_positive_rate"), 0.0);
+  const double pos = test::number_at(j, "ours.overall.pos_err_m_mean");
+  EXPECT_GE(pos, 0.0);
+  EXPECT_LT(pos, 0.01);
+}
+
+}  // namespace
+}  // namespace lander::bench
