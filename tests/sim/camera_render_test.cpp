@@ -30,6 +30,7 @@ class RenderFixture : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     world_ = std::make_unique<World>(WorldParams{}, CameraModel{});
+    world_->reserve_offscreen(2048, 1280);  // the larger pinhole view of a distorted camera
     renderer_ = std::make_unique<Renderer>(world_->model(), RenderParams{});
     tex_id_ = mj_name2id(world_->model(), mjOBJ_TEXTURE, "target_tex");
     // Camera mount in the body from the model itself: X_BC = X_WB^-1 X_WC.
@@ -206,6 +207,63 @@ TEST_F(RenderFixture, CheckerCornersLandOnTheirProjection) {
     }
   }
   EXPECT_EQ(poses, 15);
+}
+
+// Lens distortion (issue 10): the camera pipeline renders a larger pinhole view and remaps it
+// through the Brown-Conrady model, so a checker corner must appear where the distorted
+// projection puts it. Tolerance: the undistorted check's 0.5 px gross limit per corner; the
+// remap adds bilinear interpolation (1/32 px steps) on top of the render's own error.
+constexpr double kDistortedCornerTolPx = 0.5;
+
+TEST_F(RenderFixture, DistortedImageCornersLandOnTheDistortedProjection) {
+  CameraParams cp;
+  cp.intrinsics.k1 = -0.08;
+  cp.intrinsics.k2 = 0.01;
+  cp.intrinsics.p1 = 0.001;
+  CameraPipeline pipeline(cp, 1);
+  const cv::Size rs = pipeline.render_size();
+  ASSERT_GT(rs.width, cp.intrinsics.width_px);  // barrel distortion looks beyond the image
+  mjModel* m = world_->model();
+  const double fovy0 = m->cam_fovy[world_->camera_id()];
+  m->cam_fovy[world_->camera_id()] = 2.0 * std::atan(0.5 * rs.height / cp.intrinsics.fy_px) * 180.0 / M_PI;
+  const Eigen::Isometry3d X_WP = world_->X_WP();
+  const double side = world_->target().platform_size_m.x();
+  const int n_sq = 24;
+  const double sq = side / n_sq;
+  set_platform_texture([&](double x, double y) {
+    const int i = static_cast<int>(std::floor((x + 0.5 * side) / sq));
+    const int j = static_cast<int>(std::floor((y + 0.5 * side) / sq));
+    return ((i + j) % 2 == 0) ? 0.9 : 0.1;
+  });
+  place_camera(camera_looking_at(X_WP, {0.0, 0.0}, 1.1, 0.0, 0.3, 0.0));
+  cv::Mat raw;
+  renderer_->render_camera(m, world_->data(), world_->camera_id(), rs.width, rs.height, raw);
+  m->cam_fovy[world_->camera_id()] = fovy0;
+  pipeline.begin(0.0);
+  pipeline.add(raw);
+  const CameraFrame frame = pipeline.finish(0, world_->X_WC());
+  ASSERT_EQ(frame.bgr.cols, cp.intrinsics.width_px);
+  cv::Mat grey;
+  cv::cvtColor(frame.bgr, grey, cv::COLOR_BGR2GRAY);
+  int checked = 0;
+  double max_shift = 0;  // distortion's displacement of the checked corners (px)
+  for (int i = 1; i < n_sq; ++i) {
+    for (int j = 1; j < n_sq; ++j) {
+      const Eigen::Vector2d und = project(X_WP * Eigen::Vector3d(-0.5 * side + i * sq, -0.5 * side + j * sq, 0));
+      const Eigen::Vector2d uv = cp.intrinsics.distort_px(und);
+      const int win = 8;
+      if (uv.x() < win + 3 || uv.y() < win + 3 || uv.x() > grey.cols - win - 4 || uv.y() > grey.rows - win - 4) continue;
+      std::vector<cv::Point2f> c{cv::Point2f(uv.x() + 0.6, uv.y() - 0.4)};
+      cv::cornerSubPix(grey, c, cv::Size(win, win), cv::Size(-1, -1),
+                       cv::TermCriteria(cv::TermCriteria::EPS | cv::TermCriteria::COUNT, 100, 1e-4));
+      EXPECT_LT((Eigen::Vector2d(c[0].x, c[0].y) - uv).norm(), kDistortedCornerTolPx)
+          << "corner at " << uv.transpose() << " (undistorted " << und.transpose() << ")";
+      max_shift = std::max(max_shift, (uv - und).norm());
+      ++checked;
+    }
+  }
+  EXPECT_GE(checked, 100);
+  EXPECT_GT(max_shift, 10.0);  // the check saw real distortion, not a near-pinhole centre
 }
 
 TEST_F(RenderFixture, SameStateRendersTheSameImageTwice) {

@@ -100,6 +100,12 @@ CameraPipeline::CameraPipeline(const CameraParams& params, std::uint64_t seed)
         map_y_.at<float>(v, u) = static_cast<float>(c.fy_px * norm[i].y + cy0);
       }
     }
+    // Fixed-point maps (1/32 px interpolation steps): remap runs ~3x faster than with the
+    // float maps, and 1/32 px is far below the render's own aliasing.
+    cv::Mat fx, fy;
+    cv::convertMaps(map_x_, map_y_, fx, fy, CV_16SC2);
+    map_x_ = fx;
+    map_y_ = fy;
   }
 }
 
@@ -131,15 +137,26 @@ CameraFrame CameraPipeline::finish(int index, const Eigen::Isometry3d& X_WC_mid)
     return f;
   }
   cv::Mat mean;
-  if (count_ == 1) {
-    first_.convertTo(mean, CV_32FC3);
-  } else {
-    mean = accum_ * (1.0 / count_);
-  }
-  if (needs_remap_) {
+  if (count_ == 1 && needs_remap_) {
+    // One render: remap the 8-bit image itself (cheaper than in float).
     cv::Mat remapped;
-    cv::remap(mean, remapped, map_x_, map_y_, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
-    mean = remapped;
+    cv::remap(first_, remapped, map_x_, map_y_, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
+    if (params_.read_noise_dn <= 0 && params_.gain == 1.0) {
+      f.bgr = remapped;
+      return f;
+    }
+    remapped.convertTo(mean, CV_32FC3);
+  } else {
+    if (count_ == 1) {
+      first_.convertTo(mean, CV_32FC3);
+    } else {
+      mean = accum_ * (1.0 / count_);
+    }
+    if (needs_remap_) {
+      cv::Mat remapped;
+      cv::remap(mean, remapped, map_x_, map_y_, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
+      mean = remapped;
+    }
   }
   if (params_.gain != 1.0) mean *= params_.gain;  // exposure x gain; saturates below
   if (params_.read_noise_dn > 0) {
