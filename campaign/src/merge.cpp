@@ -23,12 +23,7 @@ using json = nlohmann::ordered_json;
 
 namespace {
 
-std::string read_file(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  std::ostringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
+std::string read_or_empty(const std::string& path) { return sim::read_file_text(path, true); }
 
 // One completed run as the merge sees it.
 struct Row {
@@ -206,7 +201,7 @@ MergeResult merge_campaign(const std::string& dir, const MergeOptions& o) {
   }
   json plan;
   try {
-    plan = json::parse(read_file(plan_path));
+    plan = json::parse(read_or_empty(plan_path));
   } catch (const json::exception& e) {
     throw ConfigError(plan_path + ": unreadable (" + e.what() + ")");
   }
@@ -226,7 +221,7 @@ MergeResult merge_campaign(const std::string& dir, const MergeOptions& o) {
     const std::string rdir = dir + "/runs/" + id;
     json rec;
     try {
-      rec = json::parse(read_file(rdir + "/run.json"));
+      rec = json::parse(read_or_empty(rdir + "/run.json"));
     } catch (const json::exception&) {
       res.missing.push_back(id);
       continue;
@@ -243,7 +238,7 @@ MergeResult merge_campaign(const std::string& dir, const MergeOptions& o) {
     r.wall = num(rec, "wall_s");
     if (r.status == "ok") {
       try {
-        const json s = json::parse(read_file(rdir + "/summary.json"));
+        const json s = json::parse(read_or_empty(rdir + "/summary.json"));
         r.offset = num(s, "touchdown_offset_m");
         r.speed = num(s, "touchdown_rel_speed_mps");
         r.tilt = num(s, "touchdown_tilt_deg");

@@ -24,14 +24,6 @@ namespace {
 
 constexpr double kDefaultMaxUnpairedShare = 0.05;
 
-std::string read_file(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) throw ConfigError(path + ": cannot read file");
-  std::ostringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
-
 std::string join(const std::vector<std::string>& v, const std::string& sep) {
   std::string out;
   for (std::size_t i = 0; i < v.size(); ++i) out += (i ? sep : "") + v[i];
@@ -197,7 +189,7 @@ json read_json_object(const std::string& path, const std::string& hint) {
   if (!fs::exists(path)) throw ConfigError(path + ": not found; " + hint);
   json j;
   try {
-    j = json::parse(read_file(path));
+    j = json::parse(sim::read_file_text(path));
   } catch (const json::exception& e) {
     throw ConfigError(path + ": not valid JSON (" + e.what() + ")");
   }
@@ -338,7 +330,7 @@ AcceptResult accept_baseline(const std::string& current_dir, const std::string& 
   for (const char* f : {"campaign.csv", "campaign.json", "plan.json", "campaign.yaml"}) {
     const std::string p = current_dir + "/" + f;
     if (std::string(f) == "campaign.yaml" && !fs::exists(p)) continue;  // older campaigns
-    files.emplace_back(f, read_file(p));
+    files.emplace_back(f, sim::read_file_text(p));
   }
   AcceptResult res;
   res.thresholds_path = baseline_dir + "/thresholds.yaml";

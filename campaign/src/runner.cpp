@@ -29,6 +29,8 @@ using json = nlohmann::ordered_json;
 
 namespace {
 
+std::string read_or_empty(const std::string& path) { return sim::read_file_text(path, true); }
+
 volatile sig_atomic_t g_stop = 0;
 void on_stop_signal(int) { g_stop = 1; }
 
@@ -52,16 +54,9 @@ class StopSignals {
   struct sigaction old_int_ {}, old_term_ {};
 };
 
-std::string read_file(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  std::ostringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
-
 // The last `max_bytes` of a file, cut at a line start where possible.
 std::string file_tail(const std::string& path, std::size_t max_bytes) {
-  std::string s = read_file(path);
+  std::string s = read_or_empty(path);
   if (s.size() <= max_bytes) return s;
   s = s.substr(s.size() - max_bytes);
   const auto nl = s.find('\n');
@@ -129,7 +124,7 @@ json finish_record(const Active& a, const sim::ExitStatus& st, double wall_s) {
   bool have_summary = false;
   if (fs::exists(summary_path)) {
     try {
-      summary = json::parse(read_file(summary_path));
+      summary = json::parse(read_or_empty(summary_path));
       have_summary = summary.is_object() && summary.contains("outcome") &&
                      summary["outcome"].is_string();
     } catch (const json::exception& e) {
@@ -175,7 +170,7 @@ json finish_record(const Active& a, const sim::ExitStatus& st, double wall_s) {
 }  // namespace
 
 json read_run_record(const std::string& run_dir) {
-  return json::parse(read_file(run_dir + "/run.json"));
+  return json::parse(read_or_empty(run_dir + "/run.json"));
 }
 
 void write_plan(const Campaign& c, const std::vector<PlannedRun>& plan, const std::string& out_dir) {
@@ -185,7 +180,7 @@ void write_plan(const Campaign& c, const std::vector<PlannedRun>& plan, const st
   if (fs::exists(path)) {
     json old;
     try {
-      old = json::parse(read_file(path));
+      old = json::parse(read_or_empty(path));
     } catch (const json::exception& e) {
       throw ConfigError(path + ": unreadable (" + e.what() + "); remove it or use another --out");
     }
@@ -196,7 +191,7 @@ void write_plan(const Campaign& c, const std::vector<PlannedRun>& plan, const st
     return;
   }
   sim::write_json_file(path, j);
-  sim::write_file_atomic(out_dir + "/campaign.yaml", read_file(c.file));
+  sim::write_file_atomic(out_dir + "/campaign.yaml", read_or_empty(c.file));
 }
 
 RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan,

@@ -8,9 +8,14 @@ namespace lander::cli {
 namespace {
 
 int run(const Args& args) {
-  ArgParser a(args, {"out", "seed"}, {"video", "quiet"});
+  ArgParser a(args, {"out", "seed", "record-vision", "replay-vision", "save-frames"}, {"video", "quiet"});
   if (a.positional().size() != 1) {
-    throw UsageError("usage: lander run SCENARIO.yaml --out DIR [--seed N] [--video] [--quiet]");
+    throw UsageError(
+        "usage: lander run SCENARIO.yaml --out DIR [--seed N] [--video] [--quiet] "
+        "[--record-vision FILE | --replay-vision FILE] [--save-frames DIR]");
+  }
+  if (a.has("record-vision") && a.has("replay-vision")) {
+    throw UsageError("--record-vision and --replay-vision exclude each other");
   }
   if (!a.has("out")) throw UsageError("missing --out DIR");
   sim::Scenario s = sim::Scenario::load(a.positional()[0]);
@@ -20,6 +25,9 @@ int run(const Args& args) {
   o.out_dir = a.value("out");
   o.video = a.flag("video");
   o.progress = !a.flag("quiet");
+  o.record_vision = a.value("record-vision");
+  o.replay_vision = a.value("replay-vision");
+  o.save_frames_dir = a.value("save-frames");
   const nlohmann::ordered_json summary = sim::run_scenario(s, o);
   const std::string outcome = summary.at("outcome").get<std::string>();
   std::cout << "lander run: " << s.name << ": " << outcome << "\noutputs in " << o.out_dir
@@ -30,8 +38,8 @@ int run(const Args& args) {
 }
 
 const LanderCommand reg("run",
-                        "run SCENARIO.yaml --out DIR [--seed N] [--video] [--quiet]: run one "
-                        "scenario",
+                        "run SCENARIO.yaml --out DIR [--seed N] [--video] [--quiet] "
+                        "[--record-vision F | --replay-vision F] [--save-frames DIR]: run one scenario",
                         Kind::Command, run);
 
 }  // namespace

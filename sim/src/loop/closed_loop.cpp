@@ -16,6 +16,7 @@
 #include "lander/estimator/altitude_vision.h"
 #include "lander/flight/flight_stack.h"
 #include "lander/sim/loop.h"
+#include "lander/sim/loop/vision_log.h"
 #include "lander/sim/util/output_files.h"
 #include "lander/sim/plant/plant.h"
 #include "lander/sim/recorder/recorder.h"
@@ -79,7 +80,7 @@ class VisionOutliers {
 
 }  // namespace
 
-LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world, Renderer& renderer,
+LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world, Renderer* renderer,
                            Json& summary) {
   const double dt = s.world.physics_dt_s;
   const FaultParams& F = s.faults;
@@ -93,6 +94,14 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
   DelayQueue<flight::VisionResult> vision_q;
   Recorder recorder(s, o, world, renderer);
   VisionOutliers outliers(F);
+  // Recorded vision (change indication): delivered at the recorded times, nothing rendered.
+  const bool replay = !o.replay_vision.empty();
+  std::vector<VisionLogEntry> vision_log;
+  if (replay) {
+    for (const VisionLogEntry& e : read_vision_log(o.replay_vision)) vision_q.push(e.result, e.deliver_t_s);
+  } else if (renderer == nullptr) {
+    throw std::logic_error("run_closed_loop: no renderer");
+  }
 
   LoopResult res;
   RotorArray w_cmd;
@@ -104,7 +113,10 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
     const double t = k * dt, tn = (k + 1) * dt;
     run_process_fault_hooks(F, t);  // abort / hang test hooks
     // ---- camera and vision ----
-    if (std::optional<CameraFrame> frame = camera.advance(t, world, renderer, &res.render_ms)) {
+    std::optional<CameraFrame> frame;
+    if (!replay) frame = camera.advance(t, world, *renderer, &res.render_ms);
+    if (frame) {
+      if (!o.save_frames_dir.empty()) save_frame_png(o.save_frames_dir, *frame);
       const auto t0 = Clock::now();
       RingDetection det = flight.detect(frame->bgr);
       const double proc_ms = ms_since(t0);
@@ -119,6 +131,9 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
       }
       const double latency = s.computer.measured_latency ? proc_ms * 1e-3 : s.computer.vision_latency_s;
       vision_q.push(vr, frame->exposure.t_end_s + latency);
+      if (!o.record_vision.empty()) {
+        vision_log.push_back({frame->index, frame->exposure.t_end_s + latency, vr});
+      }
     }
     // ---- plant ----
     const auto tp0 = Clock::now();
@@ -164,6 +179,7 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
   res.frames = camera.frames();
   res.outliers_injected = recorder.outliers_injected();
   recorder.finish(outcome, flight, summary);
+  if (!o.record_vision.empty()) write_vision_log(o.record_vision, vision_log);
   return res;
 }
 

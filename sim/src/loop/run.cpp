@@ -12,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "lander/sim/loop.h"
+#include "lander/sim/loop/vision_log.h"
 #include "lander/sim/util/output_files.h"
 #include "lander/sim/plant/plant.h"
 #include "lander/sim/render/renderer.h"
@@ -106,6 +107,7 @@ void run_kinematic(const Scenario& s, const RunOptions& o, World& world, Rendere
       break;
     }
     CameraFrame frame = camera.finish(i, world.X_WC());
+    if (!o.save_frames_dir.empty()) save_frame_png(o.save_frames_dir, frame);
     // Truth for the trace: is the platform centre in the image?
     const Eigen::Vector3d p_C = world.X_WC().inverse() * world.X_WP().translation();
     const Eigen::Vector3d uv = s.camera.intrinsics.K() * p_C;
@@ -157,6 +159,12 @@ void run_kinematic(const Scenario& s, const RunOptions& o, World& world, Rendere
 
 void preflight(const Scenario& s, const RunOptions& o) {
   s.validate();
+  if (!o.replay_vision.empty() || !o.record_vision.empty()) {
+    if (s.vehicle.control != "closed_loop") {
+      throw ConfigError("--record-vision and --replay-vision need a closed-loop scenario");
+    }
+  }
+  if (!o.replay_vision.empty()) read_vision_log(o.replay_vision);  // throws naming file:line
   if (!std::ifstream(s.world.model_path)) {
     throw ConfigError(s.world.model_path + ": cannot open model file (world.model)");
   }
@@ -182,20 +190,24 @@ Json run_scenario(const Scenario& s, const RunOptions& o) {
   World world(s.world, s.camera.intrinsics);
   apply_plant_truth(s, world);
   if (o.video) world.reserve_offscreen(s.video.chase_width_px, s.video.chase_height_px);
-  Renderer renderer(world.model(), s.render);
+  // No GL at all for a closed loop driven by recorded vision (change indication).
+  const bool needs_renderer = s.vehicle.control == "kinematic" || o.replay_vision.empty() || o.video;
+  std::unique_ptr<Renderer> renderer;
+  if (needs_renderer) renderer = std::make_unique<Renderer>(world.model(), s.render);
   make_dirs(o.out_dir);
+  if (!o.save_frames_dir.empty()) make_dirs(o.save_frames_dir);
   write_file_atomic(o.out_dir + "/scenario.resolved.yaml", yaml_to_string(params_to_yaml(s)));
   Json summary = Json::object();
   summary["schema_version"] = kSummarySchemaVersion;
   summary["scenario"] = s.name;
   summary["seed"] = s.seed;
   summary["vehicle_control"] = s.vehicle.control;
-  summary["render_backend"] = renderer.backend_description();
+  summary["render_backend"] = renderer ? renderer->backend_description() : "none (recorded vision)";
   try {
     if (s.vehicle.control == "kinematic") {
-      run_kinematic(s, o, world, renderer, summary);
+      run_kinematic(s, o, world, *renderer, summary);
     } else {
-      const LoopResult r = run_closed_loop(s, o, world, renderer, summary);
+      const LoopResult r = run_closed_loop(s, o, world, renderer.get(), summary);
       Json perf;
       perf["sim_seconds"] = r.sim_s;
       perf["wall_seconds"] = r.wall_s;

@@ -107,7 +107,7 @@ std::optional<Outcome> LandingJudge::update(double tn, const VehicleTruth& truth
 }
 
 // ---------------------------------------------------------------------------- recorder
-Recorder::Recorder(const Scenario& s, const RunOptions& o, World& world, Renderer& renderer)
+Recorder::Recorder(const Scenario& s, const RunOptions& o, World& world, Renderer* renderer)
     : s_(s),
       world_(world),
       renderer_(renderer),
@@ -126,6 +126,7 @@ Recorder::Recorder(const Scenario& s, const RunOptions& o, World& world, Rendere
               "w5_radps"}),
       trace_every_(std::max(1, static_cast<int>(std::lround(1.0 / (s.trace_rate_hz * s.world.physics_dt_s))))),
       judge_(world) {
+  if (video_ && renderer_ == nullptr) throw std::logic_error("Recorder: video needs a renderer");
   if (video_) {
     cam_video_ = std::make_unique<VideoWriter>(o.out_dir + "/camera.mp4", video_w_, video_h_, s.camera.rate_hz);
     chase_video_ = std::make_unique<VideoWriter>(o.out_dir + "/chase.mp4", s.video.chase_width_px,
@@ -175,7 +176,7 @@ void Recorder::on_frame(const CameraFrame& frame, const RingDetection& det,
   }
   cam_video_->write(small);
   cv::Mat chase;
-  renderer_.render_free(world_.model(), world_.data(), chase_camera(world_, s_.video), s_.video.chase_width_px,
+  renderer_->render_free(world_.model(), world_.data(), chase_camera(world_, s_.video), s_.video.chase_width_px,
                         s_.video.chase_height_px, chase);
   if (s_.video.overlays) put_text(chase, fmt::format("t {:.2f} s  mode {}", t_mid, mode), 0);
   chase_video_->write(chase);

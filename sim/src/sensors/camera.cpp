@@ -6,10 +6,13 @@
 #include <stdexcept>
 
 #include <opencv2/calib3d.hpp>
+#include <fmt/format.h>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "lander/sim/render/renderer.h"
 #include "lander/sim/plant/world.h"
+#include "lander/sim/util/output_files.h"
 
 namespace lander::sim {
 
@@ -167,6 +170,13 @@ CameraFrame CameraPipeline::finish(int index, const Eigen::Isometry3d& X_WC_mid)
   }
   mean.convertTo(f.bgr, CV_8UC3);  // rounds and saturates
   return f;
+}
+
+void save_frame_png(const std::string& dir, const CameraFrame& frame) {
+  std::vector<unsigned char> png;
+  cv::imencode(".png", frame.bgr, png);
+  write_file_atomic(fmt::format("{}/frame_{:05d}.png", dir, frame.index),
+                    std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
 }
 
 CameraRig::CameraRig(const CameraParams& params, std::uint64_t seed, double physics_dt_s)

@@ -1,11 +1,15 @@
 #include "lander/sim/util/output_files.h"
 
+#include "lander/estimator/params_io.h"
+
 #include <unistd.h>
 
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <fstream>
+#include <sstream>
 
 #include <fmt/format.h>
 
@@ -124,5 +128,16 @@ void CsvWriter::end_row() {
 }
 
 void CsvWriter::commit() { file_.commit(); }
+
+std::string read_file_text(const std::string& path, bool missing_ok) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) {
+    if (missing_ok) return "";
+    throw ConfigError(path + ": cannot read file");
+  }
+  std::ostringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
 
 }  // namespace lander::sim

@@ -30,7 +30,8 @@ inline double camera_exposure_end(const CameraParams& p, double t_start_s) {
 
 // Runs the closed loop; fills `summary` (landed, outcome, touchdown figures, transitions,
 // vision counts, altitude-fusion errors) and writes trace.csv and the videos into o.out_dir.
+// `renderer` may be null only when o.replay_vision is set and o.video is not.
 LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
-                           Renderer& renderer, nlohmann::ordered_json& summary);
+                           Renderer* renderer, nlohmann::ordered_json& summary);
 
 }  // namespace lander::sim

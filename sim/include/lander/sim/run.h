@@ -24,6 +24,11 @@ struct RunOptions {
   std::string out_dir;         ///< created if missing; files inside are overwritten
   bool video{false};           ///< write camera.mp4 and chase.mp4
   bool progress{false};        ///< print progress to stderr
+  std::string record_vision;   ///< closed loop: write the delivered vision results here
+                               ///< (loop/vision_log.h; exact, for replay)
+  std::string replay_vision;   ///< closed loop: deliver these recorded vision results instead
+                               ///< of rendering and detecting (no renderer without video)
+  std::string save_frames_dir; ///< write every camera frame as PNG (frame_NNNNN.png) here
 };
 
 // Checks everything that can be checked before any output is written: the scenario, the

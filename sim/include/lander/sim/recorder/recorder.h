@@ -56,7 +56,8 @@ class LandingJudge {
 class Recorder {
  public:
   // Opens trace.csv (and the videos when o.video) in o.out_dir.
-  Recorder(const Scenario& s, const RunOptions& o, World& world, Renderer& renderer);
+  // `renderer` is used only for the chase video (may be null without video).
+  Recorder(const Scenario& s, const RunOptions& o, World& world, Renderer* renderer);
 
   // A finished camera frame, the flight software's detection and the result it will deliver
   // (before any corruption hook): vision counts, the vision height error, video frames.
@@ -79,7 +80,7 @@ class Recorder {
  private:
   const Scenario& s_;
   World& world_;
-  Renderer& renderer_;
+  Renderer* renderer_;
   bool video_;
   int video_w_, video_h_;
   std::unique_ptr<VideoWriter> cam_video_, chase_video_;

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <optional>
 #include <vector>
 
@@ -82,6 +83,9 @@ struct CameraFrame {
   ExposureInterval exposure;           ///< sim time (s)
   Eigen::Isometry3d X_WC_true{Eigen::Isometry3d::Identity()};  ///< at mid-exposure (truth)
 };
+
+// Writes `frame` as `dir`/frame_NNNNN.png (lossless, atomically). Throws OutputError.
+void save_frame_png(const std::string& dir, const CameraFrame& frame);
 
 // Sample times of the renders that make up one exposure: blur_samples instants spread evenly
 // over [t_start, t_start + exposure] (midpoints of equal slices), each snapped to a multiple

@@ -50,6 +50,10 @@ class AtomicFile {
   bool committed_{false};
 };
 
+// The whole file as bytes. A file that cannot be opened throws ConfigError naming it, or
+// gives "" with missing_ok (logs a crashed process may not have written).
+std::string read_file_text(const std::string& path, bool missing_ok = false);
+
 // Writes `text` to `path` atomically (AtomicFile). Throws OutputError naming `path`.
 void write_file_atomic(const std::string& path, std::string_view text);
 
