@@ -6,13 +6,33 @@
 # slowest; llvmpipe's JIT is not instrumented anyway), the one-node Slurm cluster test, the
 # chromium report test (Python) and the campaign integration tests (each run is its own
 # process; the runner's own code is covered by the campaign unit tests).
+#
+# --ci: CI's sanitizer job, within its time budget: builds only the unit-test executables and
+# the fuzz targets (not the render and integration test executables), runs the unit tests
+# with leak checking, and replays each fuzz target's committed corpus and fuzzes it briefly
+# (FUZZ_SECONDS, default 20 s each) as a regression test.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+mode=full
+if [[ "${1:-}" == "--ci" ]]; then mode=ci; shift; fi
 ASAN_BASE="abort_on_error=1:strict_string_checks=1"
 export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$PWD/tools/lsan.supp:print_suppressions=0}"
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
 CC=clang CXX=clang++ cmake -S . -B build-san -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DLANDER_FUZZ=ON > build-san.log 2>&1 || { cat build-san.log; exit 1; }
+if [[ "$mode" == ci ]]; then
+  t0=$SECONDS
+  cmake --build build-san -j"$(nproc)" --target estimator_unit_tests controller_unit_tests \
+    flight_unit_tests sim_unit_tests campaign_unit_tests tools_unit_tests fuzz_scenario \
+    fuzz_target_camera fuzz_detector >> build-san.log 2>&1 || { tail -50 build-san.log; exit 1; }
+  echo "sanitize: build ok ($((SECONDS - t0)) s)"
+  cd build-san
+  ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:$ASAN_BASE}" \
+    ctest --output-on-failure -j2 --timeout 1500 -L unit "$@"
+  cd ..
+  bash tools/fuzz.sh "${FUZZ_SECONDS:-20}"
+  exit 0
+fi
 cmake --build build-san -j"$(nproc)" >> build-san.log 2>&1 || { tail -50 build-san.log; exit 1; }
 echo "sanitize: build ok (build-san/)"
 cd build-san
