@@ -95,7 +95,22 @@ int bench_render(const Args& args) {
     distorting.finish(i, world.X_WC());
     remap.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   }
+  // Read noise (camera.read_noise_dn, 2 DN as in motion_blur.yaml) on one render.
+  sim::CameraParams np = s.camera;
+  np.blur_samples = 1;
+  np.read_noise_dn = 2.0;
+  sim::CameraPipeline noisy(np, 1);
+  std::vector<double> noise_ms;
+  for (int i = 0; i < n; ++i) {
+    const auto t0 = std::chrono::steady_clock::now();
+    noisy.begin(0.0);
+    noisy.add(img);
+    noisy.finish(i, world.X_WC());
+    noise_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  }
   nlohmann::ordered_json j;
+  j["read_noise_ms_per_frame_median"] = sim::summarize(noise_ms).median;
+  j["read_noise_ms_per_frame_max"] = sim::summarize(noise_ms).max;
   j["ms_per_frame_median"] = sim::summarize(plain).median;
   j["ms_per_frame_mean"] = sim::summarize(plain).mean;
   j["ms_per_frame_max"] = sim::summarize(plain).max;

@@ -117,6 +117,7 @@ class CameraPipeline {
   CameraParams params_;
   std::uint64_t seed_;
   cv::Size render_size_;
+  cv::Mat noise_bank_;  // read noise, CV_32FC3, larger than the image (see finish())
   bool needs_remap_ = false;
   cv::Mat map_x_, map_y_;
   cv::Mat first_, accum_;
