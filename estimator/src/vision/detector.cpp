@@ -482,22 +482,35 @@ void combine_sources(RingDetection& d, const std::vector<EllipseCandidate>& cand
       pts.push_back({d.code.corners_P_m[i], d.code.corners_px[i]});
     }
   }
+  // One acceptance rule for every ring-based pose (rings + code, centre ring, centre ring +
+  // code): the ring centres' reprojection RMS (eq. 30) within max_reproj_err_px, as on the
+  // main path. A pose beyond it is not reported (returns false, d unchanged): at grazing
+  // views a small outer ring taken for the centre ring gave a pose 115 deg off with 16 px.
   auto accept = [&](const vision_internal::RefineResult& ref, PoseSource src,
                     const std::string& why) {
+    double sum = 0.0;
+    for (const auto& c : d.centres) {
+      sum += (project(K, ref.X_CP, target.ring(c.ring_id).centre_P_m) - c.centre_px).squaredNorm();
+    }
+    const double reproj = d.centres.empty() ? d.code.reproj_rms_px : std::sqrt(sum / d.centres.size());
+    if (!(reproj <= p.max_reproj_err_px)) {
+      std::ostringstream os;
+      os << "; " << to_string(src) << " pose rejected: reprojection error " << reproj << " px (gate "
+         << p.max_reproj_err_px << " px)";
+      d.reason += os.str();
+      return false;
+    }
     d.X_CP = ref.X_CP;
     d.cov = ref.cov;
     d.edge_rms_px = ref.rms_px;
     d.refine_iterations = ref.iterations;
-    double sum = 0.0;
-    for (const auto& c : d.centres) {
-      sum += (project(K, d.X_CP, target.ring(c.ring_id).centre_P_m) - c.centre_px).squaredNorm();
-    }
     d.reproj_err_sum_px2 = sum;
-    d.reproj_err_px = d.centres.empty() ? d.code.reproj_rms_px : std::sqrt(sum / d.centres.size());
+    d.reproj_err_px = reproj;
     d.detected = true;
     d.status = VisionStatus::Detected;
     d.source = src;
     d.reason = why;
+    return true;
   };
   if (rings_ok) {
     if (!d.code.detected) return;
@@ -570,8 +583,8 @@ void combine_sources(RingDetection& d, const std::vector<EllipseCandidate>& cand
              << ")";
           if (with_code) os << " + " << d.code.reason;
           os << note;
-          accept(ref, with_code ? PoseSource::Combined : PoseSource::CentreRing, os.str());
-          return;
+          if (accept(ref, with_code ? PoseSource::Combined : PoseSource::CentreRing, os.str())) return;
+          if (!d.code.detected) d.status = VisionStatus::ReprojectionTooLarge;
         }
       } else {
         d.reason += "; central pair seen but no yaw (no other set, code or track)";
