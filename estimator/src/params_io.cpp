@@ -1,5 +1,7 @@
 #include "lander/estimator/params_io.h"
 
+#include <yaml-cpp/eventhandler.h>
+
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -200,26 +202,60 @@ void YamlWriter::operator()(const char* key, const Eigen::Vector3d& field, doubl
   (*this)(key, std::vector<double>{field[0], field[1], field[2]}, scale);
 }
 
+namespace {
+
+// Counts documents without building them, remembering where each starts.
+class DocumentCounter : public YAML::EventHandler {
+ public:
+  std::vector<YAML::Mark> starts;
+  void OnDocumentStart(const YAML::Mark& mark) override { starts.push_back(mark); }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t, const std::string&) override {}
+  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+  void OnMapEnd() override {}
+};
+
+}  // namespace
+
 YAML::Node load_yaml_file(const std::string& path) {
-  std::ifstream in(path);
+  std::ifstream in(path, std::ios::binary);
   if (!in) throw ConfigError(path + ": cannot open file");
-  std::vector<YAML::Node> docs;
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw ConfigError(path + ": read error");
+  // Not YAML::LoadAll: yaml-cpp 0.7's LoadAll never returns on some malformed inputs (a lone
+  // ',' makes it produce empty documents forever; found by tests/fuzz/fuzz_scenario). The
+  // first document is built with YAML::Load and the documents are counted with a parser that
+  // stops at the second one.
+  YAML::Node doc;
+  std::size_t n_docs = 0;
+  YAML::Mark second;
   try {
-    docs = YAML::LoadAll(in);
+    doc = YAML::Load(text.str());
+    std::istringstream again(text.str());
+    YAML::Parser parser(again);
+    DocumentCounter counter;
+    while (counter.starts.size() < 2 && parser.HandleNextDocument(counter)) {
+    }
+    n_docs = counter.starts.size();
+    if (n_docs > 1) second = counter.starts[1];
   } catch (const YAML::Exception& e) {  // syntax errors, unknown anchors, ...
     const std::string where = e.mark.line >= 0 ? ":" + std::to_string(e.mark.line + 1) : "";
     throw ConfigError(path + where + ": YAML syntax error: " + e.msg);
   }
-  if (in.bad()) throw ConfigError(path + ": read error");
-  if (docs.empty() || docs[0].IsNull()) {
+  if (!doc || doc.IsNull()) {
     throw ConfigError(path + ":1: the file is empty (no keys, only comments or a null "
                              "document); expected a YAML mapping");
   }
-  if (docs.size() > 1) {
-    throw ConfigError(yaml_where(docs[1], path) + ": a second YAML document ('---'); expected "
-                                                  "one mapping per file");
+  if (n_docs > 1) {
+    throw ConfigError(path + ":" + std::to_string(second.line + 1) +
+                      ": a second YAML document ('---'); expected one mapping per file");
   }
-  return docs[0];
+  return doc;
 }
 
 std::string yaml_to_string(const YAML::Node& node) {
