@@ -53,6 +53,9 @@ void CascadeParams::validate() const {
     require(value >= 0, name, "must be >= 0");
   }
   require(max_tilt_deg > 0 && max_tilt_deg < 80, "max_tilt_deg", "must be in (0, 80)");
+  require(dist_ff_gain >= 0 && dist_ff_gain <= 1, "dist_ff_gain", "must be in [0, 1]");
+  require(dist_filter_tau_s > 0, "dist_filter_tau_s", "must be > 0");
+  require(max_dist_accel_mps2 >= 0, "max_dist_accel_mps2", "must be >= 0");
 }
 
 void TrackerParams::validate() const {

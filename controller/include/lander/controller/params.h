@@ -65,6 +65,18 @@ struct CascadeParams {
   double rate_kp_yaw{8.0};           ///< yaw rate gain (1/s)
   double rate_ki_yaw{2.0};           ///< yaw rate integral gain (1/s^2)
   double max_int_alpha_radps2{5.0};  ///< anti-windup bound of the rate integral (rad/s^2)
+  // Disturbance feed-forward (issue 10): the accelerometer's body-x/y specific force is the
+  // external (drag, wind) force per mass, since the rotors push along body z only; low-passed
+  // and rotated into W it is subtracted from the horizontal acceleration command, so a gust
+  // is met within ~dist_filter_tau_s instead of the integrator's ~vel_kp_xy / vel_ki_xy
+  // (2.5 s).
+  double dist_ff_gain{1.0};          ///< share of that estimate fed forward, in [0, 1]; 0 = off
+  double dist_filter_tau_s{0.2};     ///< its first-order low-pass time constant (s), > 0:
+                                     ///< 0.03 m/s^2 of accelerometer noise at 250 Hz becomes
+                                     ///< ~3 mm/s^2; a 4 s gust is cut to ~30 %, a 2 s gust
+                                     ///< correlation time (wind.h) to ~10 %
+  double max_dist_accel_mps2{3.0};   ///< bound of the estimate's norm (m/s^2), >= 0: ~17 deg
+                                     ///< of tilt, more than the 3.7 N of drag in a 6 m/s wind
   void validate() const;
 };
 
@@ -92,6 +104,9 @@ void visit_fields(V& v, CascadeParams& p) {
   v("rate_kp_yaw", p.rate_kp_yaw);
   v("rate_ki_yaw", p.rate_ki_yaw);
   v("max_int_alpha_radps2", p.max_int_alpha_radps2);
+  v("dist_ff_gain", p.dist_ff_gain);
+  v("dist_filter_tau_s", p.dist_filter_tau_s);
+  v("max_dist_accel_mps2", p.max_dist_accel_mps2);
 }
 
 // Platform tracking from vision (seed 000 eq. 24-28).
