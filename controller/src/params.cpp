@@ -71,6 +71,9 @@ void TrackerParams::validate() const {
   require(platform_max_speed_mps > 0, "platform_max_speed_mps", "must be > 0");
   require(history_s >= fit_window_s, "history_s", "must be >= fit_window_s");
   require(nav_history_s > 0, "nav_history_s", "must be > 0");
+  require(turn_fit_window_s > 0, "turn_fit_window_s", "must be > 0");
+  require(turn_min_speed_mps > 0, "turn_min_speed_mps", "must be > 0");
+  require(max_turn_rate_radps >= 0, "max_turn_rate_radps", "must be >= 0");
 }
 
 void LandingParams::validate() const {

@@ -129,6 +129,15 @@ struct TrackerParams {
   double platform_max_speed_mps{2.0};   ///< plausibility bound of the platform speed (m/s)
   double history_s{10.0};               ///< how long observations are kept (s)
   double nav_history_s{1.0};            ///< nav-state buffer for latency (s)
+  // Motion model for the prediction after a loss (PlatformTracker::motion(), issue 10).
+  double turn_fit_window_s{3.0};        ///< window of the quadratic fit that gives speed,
+                                        ///< heading, turn rate and braking (s): ~90 fixes;
+                                        ///< with 2.7 cm of fix noise at 8 m the turn rate is
+                                        ///< good to ~0.01 rad/s (2 s: ~0.025 rad/s)
+  double turn_min_speed_mps{0.2};       ///< below this speed no heading, turn or braking is
+                                        ///< estimated (the cart is held at its velocity) (m/s)
+  double max_turn_rate_radps{0.5};      ///< bound of the turn rate (rad/s): a 1 m/s cart on a
+                                        ///< 2 m radius; tighter is fit noise
   void validate() const;
 };
 
@@ -146,6 +155,9 @@ void visit_fields(V& v, TrackerParams& p) {
   v("platform_max_speed_mps", p.platform_max_speed_mps);
   v("history_s", p.history_s);
   v("nav_history_s", p.nav_history_s);
+  v("turn_fit_window_s", p.turn_fit_window_s);
+  v("turn_min_speed_mps", p.turn_min_speed_mps);
+  v("max_turn_rate_radps", p.max_turn_rate_radps);
 }
 
 // Landing mode machine (seed 000 section 3) and the safety behaviour the paper leaves out.
