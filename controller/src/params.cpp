@@ -76,6 +76,12 @@ void TrackerParams::validate() const {
   require(max_turn_rate_radps >= 0, "max_turn_rate_radps", "must be >= 0");
 }
 
+double LandingParams::wide_gate_m() const {
+  const double footprint_m = std::hypot(skid_half_spread_m, skid_half_length_m);
+  const double drift_m = max_touchdown_rel_speed_mps * final_wait_gap_m / descent_rate_final_mps;
+  return platform_half_size_m - footprint_m - drift_m - wide_gate_margin_m;
+}
+
 void LandingParams::validate() const {
   require(observe_frames >= 1, "observe_frames", "must be >= 1");
   require(approach_epsilon_m > 0, "approach_epsilon_m", "must be > 0");
@@ -144,6 +150,23 @@ void LandingParams::validate() const {
   require(observe_follow_max_speed_mps > 0, "observe_follow_max_speed_mps", "must be > 0");
   require(observe_follow_max_accel_mps2 > 0, "observe_follow_max_accel_mps2", "must be > 0");
   require(search_predict_max_s >= 0, "search_predict_max_s", "must be >= 0");
+  require(search_expand_after_s >= 0, "search_expand_after_s", "must be >= 0");
+  require(search_climb_rate_mps >= 0, "search_climb_rate_mps", "must be >= 0");
+  require(search_max_height_m > 0, "search_max_height_m", "must be > 0");
+  require(skid_half_spread_m > 0, "skid_half_spread_m", "must be > 0");
+  require(skid_half_length_m > 0, "skid_half_length_m", "must be > 0");
+  require(wide_gate_margin_m >= 0, "wide_gate_margin_m", "must be >= 0");
+  // The wide gate must be wider than the nominal cut gate (else it adds nothing) and inside
+  // the go-around error (else recovery goes around before it could commit).
+  require(platform_half_size_m > 0, "platform_half_size_m", "must be > 0");
+  require(wide_gate_m() > touchdown_error_m, "platform_half_size_m",
+          "leaves a wide gate (wide_gate_m()) no wider than touchdown_error_m: the top is too "
+          "small for the skids, the final drift and wide_gate_margin_m");
+  require(wide_gate_m() < go_around_error_m, "platform_half_size_m",
+          "gives a wide gate (wide_gate_m()) >= go_around_error_m");
+  require(final_decision_after_s > 0, "final_decision_after_s", "must be > 0");
+  require(final_decision_window_s >= 0, "final_decision_window_s", "must be >= 0");
+  require(max_landing_attempts >= 1, "max_landing_attempts", "must be >= 1");
 }
 
 void ControllerParams::validate() const {

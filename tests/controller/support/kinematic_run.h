@@ -1,6 +1,6 @@
 // Test support: a kinematic vehicle that sits on the landing controller's setpoint (so the
 // mode logic is tested apart from the flight dynamics) with the synthetic camera of
-// hex_model.h. Used by mode_machine_test.cpp.
+// hex_model.h. Used by mode_machine_test.cpp and landing_decision_test.cpp.
 #pragma once
 
 #include <algorithm>
@@ -49,6 +49,8 @@ struct KinematicRun {
 
   // Outputs.
   std::vector<ModeTransition> transitions;
+  LandingDecisionLog decision_log;
+  std::vector<Reacquisition> reacquisitions;
   Mode final_mode{Mode::kSearch};
   Eigen::Vector3d final_p{Eigen::Vector3d::Zero()};
   int keyframes_before_approach{-1};
@@ -155,6 +157,8 @@ struct KinematicRun {
     }
     transitions = ctl.transitions();
     landed = ctl.landed();
+    decision_log = ctl.decision_log();
+    reacquisitions = ctl.reacquisitions();
     final_mode = ctl.mode();
     final_p = p;
   }

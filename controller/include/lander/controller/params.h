@@ -271,8 +271,52 @@ struct LandingParams {
                                           ///< swings little and keeps a platform ahead
   double search_predict_max_s{10.0};      ///< after a loss, search (and go-around) fly to the
                                           ///< tracker's prediction of the platform for at most
-                                          ///< this long after the last detection; then the
-                                          ///< history is dropped and search holds (s)
+                                          ///< this long after the last fix; then the history
+                                          ///< is dropped and the search pattern's centre stays
+                                          ///< where the prediction led (s)
+  double search_expand_after_s{5.0};      ///< after a loss, fly to the prediction alone until
+                                          ///< this long after the last fix, then around it an
+                                          ///< outward spiral (search_spiral_spacing_m,
+                                          ///< search_spiral_speed_mps) sweeping the heading (s):
+                                          ///< a stop-and-go cart (0.6 m/s^2) is within the
+                                          ///< ~3 m half-footprint at 6 m for ~3 s of it
+  double search_climb_rate_mps{0.3};      ///< ... and climbing at this rate for a wider view
+                                          ///< (m/s), 0 = off
+  double search_max_height_m{10.0};       ///< ... up to this height above the platform top
+                                          ///< (m): the view's narrow half-width grows from
+                                          ///< ~3 m at 6 m to ~5.5 m, and the target is
+                                          ///< detected from 15 m (DESIGN.md)
+  // Bounded landing decision (issue 10). The geometry is the flight software's own belief,
+  // nominal copies of models/cart.xml and models/hexarotor.xml (like gear_height_m).
+  double platform_half_size_m{0.9};       ///< half the side of the square landing top (m):
+                                          ///< cart.xml "platform" box 0.9 x 0.9 (half sizes)
+  double skid_half_spread_m{0.21};        ///< skids' outer edges from the vehicle's centre
+                                          ///< line (m): hexarotor.xml skids at y = +-0.20 m,
+                                          ///< radius 0.01 m
+  double skid_half_length_m{0.21};        ///< skids' ends from the centre along body x (m):
+                                          ///< x = +-0.20 m, radius 0.01 m
+  double wide_gate_margin_m{0.05};        ///< margin of the wide gate for vision error and a
+                                          ///< tilted gear at contact (m); see wide_gate_m()
+  double final_decision_after_s{15.0};    ///< in recovery, this long after first going below
+                                          ///< final_hold_height_m without a cut, the wide gate
+                                          ///< applies (s): the nominal final stage takes ~2 s
+                                          ///< (default.yaml), ~9 s with a stop-and-go cart
+                                          ///< that stands only 2 s of its 8.7 s cycle
+  double final_decision_window_s{5.0};    ///< not within the wide gate in this long after
+                                          ///< that: go-around (s)
+  int max_landing_attempts{3};            ///< approaches (each entry into approach) before a
+                                          ///< failed one ends in aborted instead of another
+                                          ///< go-around or search
+  // The wide final gate (m), from the geometry: the skids' footprint (a rectangle of
+  // half-sides skid_half_spread_m x skid_half_length_m, any heading relative to the cart, so
+  // its circumscribed radius) must stay on the top's inscribed circle after the drift of the
+  // final descent (max_touchdown_rel_speed_mps for final_wait_gap_m / descent_rate_final_mps),
+  // with wide_gate_margin_m to spare:
+  //   wide = platform_half_size_m - hypot(skid_half_spread_m, skid_half_length_m)
+  //          - max_touchdown_rel_speed_mps * final_wait_gap_m / descent_rate_final_mps
+  //          - wide_gate_margin_m
+  // Defaults: 0.9 - 0.297 - 0.2 - 0.05 = 0.353 m.
+  double wide_gate_m() const;
   void validate() const;
 };
 
@@ -330,6 +374,16 @@ void visit_fields(V& v, LandingParams& p) {
   v("observe_follow_max_speed_mps", p.observe_follow_max_speed_mps);
   v("observe_follow_max_accel_mps2", p.observe_follow_max_accel_mps2);
   v("search_predict_max_s", p.search_predict_max_s);
+  v("search_expand_after_s", p.search_expand_after_s);
+  v("search_climb_rate_mps", p.search_climb_rate_mps);
+  v("search_max_height_m", p.search_max_height_m);
+  v("platform_half_size_m", p.platform_half_size_m);
+  v("skid_half_spread_m", p.skid_half_spread_m);
+  v("skid_half_length_m", p.skid_half_length_m);
+  v("wide_gate_margin_m", p.wide_gate_margin_m);
+  v("final_decision_after_s", p.final_decision_after_s);
+  v("final_decision_window_s", p.final_decision_window_s);
+  v("max_landing_attempts", p.max_landing_attempts);
 }
 
 // Everything the controller reads, one YAML mapping with four sections.
