@@ -525,9 +525,15 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       const bool fresh = in_view(t_s, L.descent_stale_s);
       // Bounded decision (issue 10). The timer starts the first time below the final hold
       // height in this recovery. final_decision_after_s later, if the nominal gate has still
-      // not led to a cut, the wide gate applies: within it (and slow enough for the cut) the
-      // vehicle commits and descends into contact; not within it during the next
-      // final_decision_window_s: go-around (or abort).
+      // not led to a cut, the gate widens over final_decision_window_s, linearly from the
+      // nominal (final_descent_error_m, final_descent_rel_speed_mps) to the wide one
+      // (wide_gate_m(), max_touchdown_rel_speed_mps):
+      //   f = (waited - final_decision_after_s) / final_decision_window_s in [0, 1],
+      //   gate = nominal + f (wide - nominal),
+      // so the commit comes at the first moment the disturbance lets the error below it (the
+      // smallest error it offers, not the first within the wide gate). Within it the vehicle
+      // commits and descends into contact; not within it by the end of the window: go-around
+      // (or abort).
       const double wide_gate = L.wide_gate_m();
       if (std::isnan(final_t0_) && h < L.final_hold_height_m) {
         final_t0_ = t_s;
@@ -538,14 +544,24 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       const double waited = std::isnan(final_t0_) ? 0.0 : t_s - final_t0_;
       diag_.final_stage_s = waited;
       if (!std::isnan(final_t0_) && !wide_committed_ && waited >= L.final_decision_after_s) {
-        if (fresh && e_xy < wide_gate && rel_speed < L.max_touchdown_rel_speed_mps) {
+        const double f =
+            L.final_decision_window_s > 0.0
+                ? std::min(1.0, (waited - L.final_decision_after_s) / L.final_decision_window_s)
+                : 1.0;
+        const double gate_now =
+            L.final_descent_error_m + f * (wide_gate - L.final_descent_error_m);
+        const double rel_now =
+            L.final_descent_rel_speed_mps +
+            f * (L.max_touchdown_rel_speed_mps - L.final_descent_rel_speed_mps);
+        if (fresh && e_xy < gate_now && rel_speed < rel_now) {
           wide_committed_ = true;
           diag_.wide_committed = true;
           decide(t_s, "committed_wide",
                  fmt::format("nominal gate ({:.3f} m, {:.2f} m/s) not met in {:.1f} s below {:.2f} m; "
-                             "error {:.3f} m < wide gate {:.3f} m, relative speed {:.2f} m/s < {:.2f} m/s",
+                             "error {:.3f} m < {:.3f} m, relative speed {:.2f} m/s < {:.2f} m/s "
+                             "(gate widening to {:.3f} m, {:.2f} m/s)",
                              L.final_descent_error_m, L.final_descent_rel_speed_mps, waited,
-                             L.final_hold_height_m, e_xy, wide_gate, rel_speed,
+                             L.final_hold_height_m, e_xy, gate_now, rel_speed, rel_now, wide_gate,
                              L.max_touchdown_rel_speed_mps));
         } else if (waited >= L.final_decision_after_s + L.final_decision_window_s) {
           end_attempt(t_s, Mode::kGoAround,

@@ -62,8 +62,9 @@ struct LandingEvent {
   double t_s{0.0};   ///< time (s)
   int attempt{0};    ///< attempt it belongs to (1-based; 0 before the first approach)
   /// "attempt_started" (approach entered), "final_stage" (first below final_hold_height_m in
-  /// recovery: the decision timer starts), "committed_wide" (the wide gate met after
-  /// final_decision_after_s: descent into contact within it), "committed_nominal" (the cut
+  /// recovery: the decision timer starts), "committed_wide" (after final_decision_after_s,
+  /// the error within the gate widening towards the wide gate: descent into contact, the cut
+  /// allowed within the wide gate), "committed_nominal" (the cut
   /// within the nominal gate), "cut" (motors cut, either gate), "landed" (contact),
   /// "go_around", "lost" (the target lost high in approach: back to search), "aborted".
   std::string what;

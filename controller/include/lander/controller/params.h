@@ -298,12 +298,14 @@ struct LandingParams {
   double wide_gate_margin_m{0.05};        ///< margin of the wide gate for vision error and a
                                           ///< tilted gear at contact (m); see wide_gate_m()
   double final_decision_after_s{15.0};    ///< in recovery, this long after first going below
-                                          ///< final_hold_height_m without a cut, the wide gate
-                                          ///< applies (s): the nominal final stage takes ~2 s
+                                          ///< final_hold_height_m without a cut, the final
+                                          ///< gate starts widening towards the wide gate (s):
+                                          ///< the nominal final stage takes ~2 s
                                           ///< (default.yaml), ~9 s with a stop-and-go cart
                                           ///< that stands only 2 s of its 8.7 s cycle
-  double final_decision_window_s{5.0};    ///< not within the wide gate in this long after
-                                          ///< that: go-around (s)
+  double final_decision_window_s{5.0};    ///< ... linearly over this long, to wide_gate_m()
+                                          ///< and max_touchdown_rel_speed_mps; not within it
+                                          ///< by then: go-around (s); 0 = the wide gate at once
   int max_landing_attempts{3};            ///< approaches (each entry into approach) before a
                                           ///< failed one ends in aborted instead of another
                                           ///< go-around or search
