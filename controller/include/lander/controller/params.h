@@ -297,12 +297,14 @@ struct LandingParams {
                                           ///< x = +-0.20 m, radius 0.01 m
   double wide_gate_margin_m{0.05};        ///< margin of the wide gate for vision error and a
                                           ///< tilted gear at contact (m); see wide_gate_m()
-  double final_decision_after_s{15.0};    ///< in recovery, this long after first going below
+  double final_decision_after_s{30.0};    ///< in recovery, this long after first going below
                                           ///< final_hold_height_m without a cut, the final
                                           ///< gate starts widening towards the wide gate (s):
                                           ///< the nominal final stage takes ~2 s
-                                          ///< (default.yaml), ~9 s with a stop-and-go cart
-                                          ///< that stands only 2 s of its 8.7 s cycle
+                                          ///< (default.yaml); a stop-and-go cart (8.7 s
+                                          ///< cycle, stands 2 s) is met in its first or
+                                          ///< second stop (up to ~18 s in 6 seeds of
+                                          ///< cart_stop_and_go.yaml): 30 s leaves a third
   double final_decision_window_s{5.0};    ///< ... linearly over this long, to wide_gate_m()
                                           ///< and max_touchdown_rel_speed_mps; not within it
                                           ///< by then: go-around (s); 0 = the wide gate at once
