@@ -1,6 +1,7 @@
 // validate() of the controller params: every check names its field.
 #include "lander/controller/params.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace lander::ctl {
@@ -76,10 +77,14 @@ void TrackerParams::validate() const {
   require(max_turn_rate_radps >= 0, "max_turn_rate_radps", "must be >= 0");
 }
 
-double LandingParams::wide_gate_m() const {
+double LandingParams::wide_gate_on_top_m() const {
   const double footprint_m = std::hypot(skid_half_spread_m, skid_half_length_m);
   const double drift_m = max_touchdown_rel_speed_mps * final_wait_gap_m / descent_rate_final_mps;
   return platform_half_size_m - footprint_m - drift_m - wide_gate_margin_m;
+}
+
+double LandingParams::wide_gate_m() const {
+  return std::min(wide_gate_on_top_m(), cut_vision_radius_m);
 }
 
 void LandingParams::validate() const {
@@ -157,12 +162,16 @@ void LandingParams::validate() const {
   require(skid_half_length_m > 0, "skid_half_length_m", "must be > 0");
   require(wide_gate_margin_m >= 0, "wide_gate_margin_m", "must be >= 0");
   // The wide gate must be wider than the nominal cut gate (else it adds nothing) and inside
-  // the go-around error (else recovery goes around before it could commit).
+  // the go-around error (else recovery goes around before it could commit). The message
+  // names whichever of the two limits sets it.
   require(platform_half_size_m > 0, "platform_half_size_m", "must be > 0");
-  require(wide_gate_m() > touchdown_error_m, "platform_half_size_m",
+  require(cut_vision_radius_m > 0, "cut_vision_radius_m", "must be > 0");
+  const char* limit = wide_gate_on_top_m() <= cut_vision_radius_m ? "platform_half_size_m"
+                                                                   : "cut_vision_radius_m";
+  require(wide_gate_m() > touchdown_error_m, limit,
           "leaves a wide gate (wide_gate_m()) no wider than touchdown_error_m: the top is too "
-          "small for the skids, the final drift and wide_gate_margin_m");
-  require(wide_gate_m() < go_around_error_m, "platform_half_size_m",
+          "small for the skids, the final drift and wide_gate_margin_m, or vision too narrow");
+  require(wide_gate_m() < go_around_error_m, limit,
           "gives a wide gate (wide_gate_m()) >= go_around_error_m");
   require(final_decision_after_s > 0, "final_decision_after_s", "must be > 0");
   require(final_decision_window_s >= 0, "final_decision_window_s", "must be >= 0");

@@ -297,6 +297,15 @@ struct LandingParams {
                                           ///< x = +-0.20 m, radius 0.01 m
   double wide_gate_margin_m{0.05};        ///< margin of the wide gate for vision error and a
                                           ///< tilted gear at contact (m); see wide_gate_m()
+  double cut_vision_radius_m{0.17};       ///< largest horizontal offset from the platform
+                                          ///< centre at which vision still localises the
+                                          ///< platform at the cut (m): the cut needs a fresh
+                                          ///< detection. Own belief of the target and camera:
+                                          ///< the 0.40 m code map (models/target.yaml), the
+                                          ///< camera 0.18 m above the top at the cut (mount
+                                          ///< -0.08 m) seeing 0.36 m x 0.20 m (fx 640 px),
+                                          ///< a 5 x 5 window of 2.5 cm cells needed: across
+                                          ///< the narrow axis 0.20 + 0.10 - 0.125 = 0.175 m
   double final_decision_after_s{30.0};    ///< in recovery, this long after first going below
                                           ///< final_hold_height_m without a cut, the final
                                           ///< gate starts widening towards the wide gate (s):
@@ -311,15 +320,17 @@ struct LandingParams {
   int max_landing_attempts{3};            ///< approaches (each entry into approach) before a
                                           ///< failed one ends in aborted instead of another
                                           ///< go-around or search
-  // The wide final gate (m), from the geometry: the skids' footprint (a rectangle of
+  // The wide final gate (m). From the geometry: the skids' footprint (a rectangle of
   // half-sides skid_half_spread_m x skid_half_length_m, any heading relative to the cart, so
   // its circumscribed radius) must stay on the top's inscribed circle after the drift of the
   // final descent (max_touchdown_rel_speed_mps for final_wait_gap_m / descent_rate_final_mps),
   // with wide_gate_margin_m to spare:
-  //   wide = platform_half_size_m - hypot(skid_half_spread_m, skid_half_length_m)
-  //          - max_touchdown_rel_speed_mps * final_wait_gap_m / descent_rate_final_mps
-  //          - wide_gate_margin_m
-  // Defaults: 0.9 - 0.297 - 0.2 - 0.05 = 0.353 m.
+  //   on_top = platform_half_size_m - hypot(skid_half_spread_m, skid_half_length_m)
+  //            - max_touchdown_rel_speed_mps * final_wait_gap_m / descent_rate_final_mps
+  //            - wide_gate_margin_m
+  // and the cut must still see the target: wide = min(on_top, cut_vision_radius_m).
+  // Defaults: on_top = 0.9 - 0.297 - 0.2 - 0.05 = 0.353 m; wide = 0.17 m (vision-limited).
+  double wide_gate_on_top_m() const;
   double wide_gate_m() const;
   void validate() const;
 };
@@ -385,6 +396,7 @@ void visit_fields(V& v, LandingParams& p) {
   v("skid_half_spread_m", p.skid_half_spread_m);
   v("skid_half_length_m", p.skid_half_length_m);
   v("wide_gate_margin_m", p.wide_gate_margin_m);
+  v("cut_vision_radius_m", p.cut_vision_radius_m);
   v("final_decision_after_s", p.final_decision_after_s);
   v("final_decision_window_s", p.final_decision_window_s);
   v("max_landing_attempts", p.max_landing_attempts);
