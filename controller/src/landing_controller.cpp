@@ -221,6 +221,12 @@ void LandingController::check_reacquired(double t_s) {
   }
 }
 
+double LandingController::search_min_z(const NavState& nav) const {
+  const LandingParams& L = p_.landing;
+  if (!altitude_.valid) return L.search_min_height_m;
+  return nav.p_W_m.z() + (L.search_min_height_m - altitude_.h_surface_m);
+}
+
 Setpoint LandingController::hold(const Eigen::Vector3d& p) const {
   Setpoint sp;
   sp.p_W_m = p;
@@ -240,9 +246,7 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
       // The history is kept: search flies to its prediction of the platform (see
       // search_predict_max_s) and a re-acquisition continues it.
       hold_p_ = nav.p_W_m;
-      double z_min = L.search_min_height_m;
-      if (altitude_.valid) z_min = nav.p_W_m.z() + (L.search_min_height_m - altitude_.h_surface_m);
-      hold_p_.z() = std::max(hold_p_.z(), z_min);
+      hold_p_.z() = std::max(hold_p_.z(), search_min_z(nav));
       search_after_loss_ = tracker_.has_fix();
       search_t_seen_ = search_after_loss_ ? tracker_.latest().t_s : t_s;
       search_centre_ = nav.p_W_m.head<2>();
@@ -307,9 +311,8 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
     case Mode::kAborted: {
       // Straight up from here to the go-around height above the top, then hold.
       hold_p_ = nav.p_W_m;
-      double z_min = L.search_min_height_m;
-      if (altitude_.valid) z_min = nav.p_W_m.z() + (L.search_min_height_m - altitude_.h_surface_m);
-      hold_p_.z() = std::max({nav.p_W_m.z(), platform_z() + L.go_around_height_m, z_min});
+      hold_p_.z() =
+          std::max({nav.p_W_m.z(), platform_z() + L.go_around_height_m, search_min_z(nav)});
       if (mode_ == Mode::kTouchdown) cascade_.reset();  // motors restart from idle
       break;
     }
@@ -370,6 +373,21 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       // After a loss: fly to where the motion model predicts the platform instead of holding
       // while the cart drives away, then widen the search around it.
       if (search_after_loss_) return search_after_loss(t_s);
+      // Not acquired yet, but a fix already (fewer than reacquire_frames keyframes in a row):
+      // fly to it, as before issue 10 (and sweep afresh once it is too old).
+      const bool had_fix = tracker_.has_fix();
+      Eigen::Vector2d p_pred, v_pred;
+      if (predict_platform(t_s, &p_pred, &v_pred)) {
+        hold_p_.head<2>() = p_pred;
+        Setpoint sp = hold(hold_p_);
+        sp.v_W_mps.head<2>() = v_pred;
+        diag_.search_centre_W_m = hold_p_;
+        return sp;
+      }
+      if (had_fix) {
+        search_t0_ = t_s;
+        search_yaw0_ = yaw_hold_;
+      }
       // Nothing to predict from: heading sweep. The 1280 px image axis is along body y, so
       // turning the vehicle scans a circle of radius ~h tan(45 deg) instead of the 29 deg
       // half-angle along body x. After search_spiral_after_s, an outward spiral around hold_p_.

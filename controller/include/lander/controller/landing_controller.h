@@ -182,6 +182,9 @@ class LandingController {
   double platform_z() const;  // platform height of the last fix, even after the history
                               // was dropped; 0 (ground) before the first
   Setpoint hold(const Eigen::Vector3d& p) const;
+  // Height in W that is search_min_height_m above the surface below (by the fused altitude;
+  // above the W origin plane without one) (m).
+  double search_min_z(const NavState& nav) const;
   // Outward spiral t_spiral_s after it starts: offset from its centre and velocity relative
   // to it (both zero before it starts or with search_spiral_speed_mps = 0).
   void spiral_offset(double t_spiral_s, Eigen::Vector2d* off, Eigen::Vector2d* v) const;
