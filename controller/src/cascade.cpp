@@ -39,6 +39,7 @@ void CascadeController::set_descent_limit_mps(double mps) {
 void CascadeController::reset() {
   vel_int_.setZero();
   rate_int_.setZero();
+  dist_W_.setZero();
   force_sp_W_ = Eigen::Vector3d(0, 0, v_.mass_kg * v_.gravity_mps2);
   last_outer_t_ = -1e300;
   last_inner_t_ = -1e300;
@@ -92,6 +93,9 @@ void CascadeController::update_outer(double t_s, const Setpoint& sp, const NavSt
   Eigen::Vector3d a_cmd = sp.a_W_mps2 + vel_int_;
   a_cmd.x() += g_.vel_kp_xy * e_v.x();
   a_cmd.y() += g_.vel_kp_xy * e_v.y();
+  // Disturbance feed-forward: the plant adds d to what the thrust vector gives, so ask for
+  // that much less (the integral takes what the estimate misses).
+  a_cmd.head<2>() -= g_.dist_ff_gain * dist_W_;
   a_cmd.z() += g_.vel_kp_z * e_v.z();
   a_cmd.z() = std::clamp(a_cmd.z(), -g_.max_accel_z_mps2, g_.max_accel_z_mps2);
 
@@ -108,6 +112,21 @@ void CascadeController::update_outer(double t_s, const Setpoint& sp, const NavSt
   diag_.force_sp_W_N = force_sp_W_;
 }
 
+// The rotors push along z_B only, so the specific force the accelerometer reads is
+//   f_B = (T / m) e_z + R_WB^T F_ext / m,
+// and its body-x/y components are the external force (drag in wind, gusts) per mass. In W,
+// d = R_WB (f_Bx, f_By, 0) is that force's horizontal part, up to the projection of its
+// body-z component (~sin^2 of the tilt: 3 % at 10 deg). First-order low-pass, bounded:
+//   d_k = d_{k-1} + (d_meas - d_{k-1}) min(1, dt / tau).
+void CascadeController::update_disturbance(double dt, const NavState& nav, const ImuSample& imu) {
+  if (!(dt > 0) || !imu.accel_B_mps2.allFinite()) return;
+  const Eigen::Vector3d f_xy_B(imu.accel_B_mps2.x(), imu.accel_B_mps2.y(), 0.0);
+  const Eigen::Vector2d d_meas = (nav.q_WB * f_xy_B).head<2>();
+  dist_W_ += (d_meas - dist_W_) * std::min(1.0, dt / g_.dist_filter_tau_s);
+  dist_W_ = clamp_norm(dist_W_, g_.max_dist_accel_mps2);
+  diag_.dist_W_mps2 = Eigen::Vector3d(dist_W_.x(), dist_W_.y(), 0.0);
+}
+
 MixerOutput CascadeController::update_inner(double t_s, const NavState& nav,
                                             const ImuSample& imu) {
   const bool first = last_inner_t_ < -1e299;
@@ -119,6 +138,7 @@ MixerOutput CascadeController::update_inner(double t_s, const NavState& nav,
   Eigen::Vector3d omega;
   double thrust;
   if (nav.valid) {
+    update_disturbance(dt, nav, imu);
     omega = nav.omega_B_radps;
     const Eigen::Quaterniond q_sp = attitude_from_thrust(force_sp_W_, yaw_sp_);
     diag_.q_sp_WB = q_sp;

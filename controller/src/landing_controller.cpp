@@ -50,6 +50,7 @@ const char* to_string(Mode m) {
     case Mode::kTouchdown: return "touchdown";
     case Mode::kLanded: return "landed";
     case Mode::kGoAround: return "go_around";
+    case Mode::kAborted: return "aborted";
   }
   return "unknown";
 }
@@ -58,6 +59,7 @@ LandingController::LandingController(const ControllerParams& params, const Camer
     : p_(params), cascade_(params.vehicle, params.cascade), tracker_(params.tracker, mount) {
   p_.validate();
   mount.validate();
+  decisions_.wide_gate_m = p_.landing.wide_gate_m();
 }
 
 void LandingController::on_vision(const PlatformObservation& obs) {
@@ -82,30 +84,30 @@ bool LandingController::in_view(double t_s, double timeout_s) const {
 }
 
 double LandingController::platform_z() const {
-  return tracker_.has_fix() ? tracker_.latest().p_W_m.z() : 0.0;
+  return tracker_.has_fix() ? tracker_.latest().p_W_m.z() : last_platform_z_;
 }
 
-bool LandingController::follow_prediction(double t_s, Setpoint* sp) {
+bool LandingController::predict_platform(double t_s, Eigen::Vector2d* p, Eigen::Vector2d* v) {
   const LandingParams& L = p_.landing;
   if (!tracker_.has_fix()) return false;
   if (t_s - tracker_.latest().t_s > L.search_predict_max_s) {
-    // Too old to predict from: forget it and hold where the last prediction led.
+    // Too old to predict from: forget it (a re-acquisition starts a fresh history).
     tracker_.clear();
-    search_t0_ = t_s;
-    search_yaw0_ = yaw_hold_;
     return false;
   }
-  const Eigen::Vector3d pred = tracker_.predict(t_s);
-  hold_p_.head<2>() = pred.head<2>();
-  sp->p_W_m.head<2>() = pred.head<2>();
-  sp->v_W_mps.head<2>() = tracker_.velocity().head<2>();
+  const PlatformMotion m = tracker_.motion();
+  *p = m.position_at(t_s).head<2>();
+  *v = m.velocity_at(t_s).head<2>();
   return true;
 }
 
-void LandingController::search_spiral(double t_spiral_s, Setpoint* sp) const {
+void LandingController::spiral_offset(double t_spiral_s, Eigen::Vector2d* off,
+                                      Eigen::Vector2d* v) const {
   const LandingParams& L = p_.landing;
+  off->setZero();
+  v->setZero();
   if (L.search_spiral_speed_mps <= 0.0 || t_spiral_s <= 0.0) return;
-  // Archimedean spiral r = b theta around the hold point, flown at constant speed: the arc
+  // Archimedean spiral r = b theta around the centre, flown at constant speed: the arc
   // length from the centre is ~ b theta^2 / 2, so theta = sqrt(2 s / b). Beyond the maximum
   // radius it goes on around the circle.
   const double b = L.search_spiral_spacing_m / (2.0 * M_PI);
@@ -122,10 +124,107 @@ void LandingController::search_spiral(double t_spiral_s, Setpoint* sp) const {
   }
   const Eigen::Vector2d radial(std::cos(theta), std::sin(theta));
   const Eigen::Vector2d tangential(-std::sin(theta), std::cos(theta));
-  sp->p_W_m.head<2>() = hold_p_.head<2>() + r * radial;
+  *off = r * radial;
   // Velocity along the curve: d/dtheta of r(theta) e_r is b e_r + r e_t (b = 0 on the circle).
-  Eigen::Vector2d dir = (s < s_max ? b : 0.0) * radial + r * tangential;
-  if (dir.norm() > 1e-9) sp->v_W_mps.head<2>() = L.search_spiral_speed_mps * dir.normalized();
+  const Eigen::Vector2d dir = (s < s_max ? b : 0.0) * radial + r * tangential;
+  if (dir.norm() > 1e-9) *v = L.search_spiral_speed_mps * dir.normalized();
+}
+
+// Search after a loss (issue 10). The pattern's centre is the motion model's prediction of
+// the platform (a turning cart keeps turning, a braking one stops), carried with its velocity
+// fed forward, until search_predict_max_s after the last fix; then it stays where the
+// prediction led. Until search_expand_after_s after the last fix the vehicle flies to the
+// centre with the heading held (the prediction alone usually brings the target back); from
+// then on the uncertainty has outgrown the view: an outward spiral around the centre
+// (search_spiral_spacing_m, search_spiral_speed_mps relative to it) with the heading sweep,
+// and a climb at search_climb_rate_mps to at most search_max_height_m above the top for a
+// wider view.
+Setpoint LandingController::search_after_loss(double t_s) {
+  const LandingParams& L = p_.landing;
+  Eigen::Vector2d centre_v = Eigen::Vector2d::Zero();
+  Eigen::Vector2d pred;
+  if (predict_platform(t_s, &pred, &centre_v)) search_centre_ = pred;
+  diag_.search_centre_W_m = Eigen::Vector3d(search_centre_.x(), search_centre_.y(), platform_z());
+  Setpoint sp = hold(hold_p_);
+  sp.p_W_m.head<2>() = search_centre_;
+  sp.v_W_mps.head<2>() = centre_v;
+  const double t_expand0 = std::max(search_t0_, search_t_seen_ + L.search_expand_after_s);
+  if (t_s <= t_expand0) return sp;
+  const double t_exp = t_s - t_expand0;
+  Eigen::Vector2d off, off_v;
+  spiral_offset(t_exp, &off, &off_v);
+  sp.p_W_m.head<2>() += off;
+  sp.v_W_mps.head<2>() += off_v;
+  yaw_hold_ = std::remainder(search_yaw0_ + L.search_yaw_rate_degps * M_PI / 180.0 * t_exp,
+                             2 * M_PI);
+  sp.yaw_rad = yaw_hold_;
+  // Climb (never below the search height it started at).
+  const double z_top = hold_p_.z() + L.search_climb_rate_mps * t_exp;
+  const double z_max = std::max(hold_p_.z(), platform_z() + L.search_max_height_m);
+  sp.p_W_m.z() = std::min(z_top, z_max);
+  if (sp.p_W_m.z() < z_max && L.search_climb_rate_mps > 0) sp.v_W_mps.z() = L.search_climb_rate_mps;
+  return sp;
+}
+
+void LandingController::log_event(double t_s, const std::string& what,
+                                  const std::string& reason) {
+  decisions_.events.push_back({t_s, decisions_.attempts, what, reason});
+}
+
+void LandingController::decide(double t_s, const std::string& decision,
+                               const std::string& reason) {
+  decisions_.decision = decision;
+  decisions_.reason = reason;
+  decisions_.t_s = t_s;
+  log_event(t_s, decision, reason);
+}
+
+void LandingController::end_attempt(double t_s, Mode next, const std::string& why,
+                                    const NavState& nav) {
+  const LandingParams& L = p_.landing;
+  if (decisions_.attempts >= L.max_landing_attempts) {
+    const std::string reason = fmt::format("{}; {} of {} landing attempts used: abort", why,
+                                           decisions_.attempts, L.max_landing_attempts);
+    decide(t_s, "aborted", reason);
+    switch_to(t_s, Mode::kAborted, reason, nav);
+    return;
+  }
+  decide(t_s, next == Mode::kGoAround ? "go_around" : "lost", why);
+  switch_to(t_s, next, why, nav);
+}
+
+void LandingController::declare_loss(double t_s) {
+  Reacquisition r;
+  r.t_last_seen_s = tracker_.last_detection_t();
+  r.t_lost_s = t_s;
+  r.lost_in = mode_;
+  reacquisitions_.push_back(r);
+  loss_motion_ = tracker_.motion();
+}
+
+void LandingController::check_reacquired(double t_s) {
+  if (reacquisitions_.empty()) return;
+  Reacquisition& r = reacquisitions_.back();
+  if (!std::isnan(r.t_reacquired_s)) return;
+  if (tracker_.last_detection_t() <= r.t_last_seen_s) return;
+  if (tracker_.keyframe_streak() < p_.landing.reacquire_frames ||
+      !in_view(t_s, p_.landing.loss_timeout_s)) {
+    return;
+  }
+  r.t_reacquired_s = t_s;
+  if (!loss_motion_.valid) return;
+  // The first fix after the loss against where the model of the loss put the platform then.
+  for (const PlatformFix& f : tracker_.fixes()) {
+    if (f.t_s <= r.t_last_seen_s) continue;
+    r.prediction_error_m = horizontal(f.p_W_m - loss_motion_.position_at(f.t_s));
+    break;
+  }
+}
+
+double LandingController::search_min_z(const NavState& nav) const {
+  const LandingParams& L = p_.landing;
+  if (!altitude_.valid) return L.search_min_height_m;
+  return nav.p_W_m.z() + (L.search_min_height_m - altitude_.h_surface_m);
 }
 
 Setpoint LandingController::hold(const Eigen::Vector3d& p) const {
@@ -147,9 +246,10 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
       // The history is kept: search flies to its prediction of the platform (see
       // search_predict_max_s) and a re-acquisition continues it.
       hold_p_ = nav.p_W_m;
-      double z_min = L.search_min_height_m;
-      if (altitude_.valid) z_min = nav.p_W_m.z() + (L.search_min_height_m - altitude_.h_surface_m);
-      hold_p_.z() = std::max(hold_p_.z(), z_min);
+      hold_p_.z() = std::max(hold_p_.z(), search_min_z(nav));
+      search_after_loss_ = tracker_.has_fix();
+      search_t_seen_ = search_after_loss_ ? tracker_.latest().t_s : t_s;
+      search_centre_ = nav.p_W_m.head<2>();
       break;
     }
     case Mode::kObserve:
@@ -179,20 +279,27 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
       diag_.approach_t0_s = t_s;
       diag_.approach_td_s = td;
       diag_.replans = 0;
+      ++decisions_.attempts;  // a landing attempt starts with the approach
+      log_event(t_s, "attempt_started", reason);
       break;
     }
     case Mode::kRecovery:
       recovery_h_sp_ = diag_.gear_clearance_m;
       servo_int_.setZero();
       platform_vz_lp_ = diag_.platform_v_W_mps.z();
+      final_t0_ = std::numeric_limits<double>::quiet_NaN();
+      wide_committed_ = false;
       break;
     case Mode::kTouchdown:
       cut_t_ = t_s;
       contact_accum_s_ = 0.0;
+      if (!wide_committed_) decide(t_s, "committed_nominal", reason);
+      log_event(t_s, "cut", reason);
       break;
     case Mode::kLanded:
       diag_.contact = true;
       diag_.contact_t_s = t_s;
+      log_event(t_s, "landed", reason);
       break;
     case Mode::kGoAround:
       hold_p_ = nav.p_W_m;
@@ -201,7 +308,16 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
       // moving cart stays below (the fixes are measurements; only the plan failed).
       if (mode_ == Mode::kTouchdown) cascade_.reset();  // motors restart from idle
       break;
+    case Mode::kAborted: {
+      // Straight up from here to the go-around height above the top, then hold.
+      hold_p_ = nav.p_W_m;
+      hold_p_.z() =
+          std::max({nav.p_W_m.z(), platform_z() + L.go_around_height_m, search_min_z(nav)});
+      if (mode_ == Mode::kTouchdown) cascade_.reset();  // motors restart from idle
+      break;
+    }
   }
+  diag_.wide_committed = wide_committed_;
   mode_ = to;
 }
 
@@ -235,6 +351,7 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
   diag_.keyframe_streak = tracker_.keyframe_streak();
   diag_.platform_known = tracker_.has_fix();
   if (tracker_.has_fix()) {
+    last_platform_z_ = tracker_.latest().p_W_m.z();
     // The platform now, from the relative vector (navigation drift cancels), in W.
     diag_.platform_W_m = nav.p_W_m + tracker_.relative_now(t_s);
     diag_.platform_v_W_mps = tracker_.velocity();
@@ -242,6 +359,8 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
     diag_.gear_clearance_m = nav.p_W_m.z() - diag_.platform_W_m.z() - L.gear_height_m;
   }
   const double loss_age = t_s - tracker_.last_detection_t();
+  check_reacquired(t_s);
+  diag_.final_stage_s = (mode_ == Mode::kRecovery && !std::isnan(final_t0_)) ? t_s - final_t0_ : 0.0;
 
   switch (mode_) {
     case Mode::kSearch: {
@@ -251,25 +370,44 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
                   nav);
         return run_mode_machine(t_s, nav);
       }
-      // After a loss: fly to where the tracker predicts the platform (its last velocity
-      // carried on), heading held, instead of holding while the cart drives away.
-      Setpoint sp = hold(hold_p_);
-      if (follow_prediction(t_s, &sp)) return sp;
+      // After a loss: fly to where the motion model predicts the platform instead of holding
+      // while the cart drives away, then widen the search around it.
+      if (search_after_loss_) return search_after_loss(t_s);
+      // Not acquired yet, but a fix already (fewer than reacquire_frames keyframes in a row):
+      // fly to it, as before issue 10 (and sweep afresh once it is too old).
+      const bool had_fix = tracker_.has_fix();
+      Eigen::Vector2d p_pred, v_pred;
+      if (predict_platform(t_s, &p_pred, &v_pred)) {
+        hold_p_.head<2>() = p_pred;
+        Setpoint sp = hold(hold_p_);
+        sp.v_W_mps.head<2>() = v_pred;
+        diag_.search_centre_W_m = hold_p_;
+        return sp;
+      }
+      if (had_fix) {
+        search_t0_ = t_s;
+        search_yaw0_ = yaw_hold_;
+      }
       // Nothing to predict from: heading sweep. The 1280 px image axis is along body y, so
       // turning the vehicle scans a circle of radius ~h tan(45 deg) instead of the 29 deg
-      // half-angle along body x.
+      // half-angle along body x. After search_spiral_after_s, an outward spiral around hold_p_.
       yaw_hold_ = std::remainder(
           search_yaw0_ + L.search_yaw_rate_degps * M_PI / 180.0 * (t_s - search_t0_), 2 * M_PI);
-      Setpoint s2 = hold(hold_p_);
-      search_spiral(t_s - search_t0_ - L.search_spiral_after_s, &s2);
-      return s2;
+      Setpoint sp = hold(hold_p_);
+      Eigen::Vector2d off, off_v;
+      spiral_offset(t_s - search_t0_ - L.search_spiral_after_s, &off, &off_v);
+      sp.p_W_m.head<2>() += off;
+      sp.v_W_mps.head<2>() = off_v;
+      diag_.search_centre_W_m = hold_p_;
+      return sp;
     }
 
     case Mode::kObserve: {
       if (!in_view(t_s, L.loss_timeout_s)) {
+        declare_loss(t_s);
         switch_to(t_s, Mode::kSearch, fmt::format("target lost for {:.2f} s while observing", loss_age),
                   nav);
-        return hold(hold_p_);
+        return run_mode_machine(t_s, nav);
       }
       if (tracker_.total_fixes() >= L.observe_frames) {
         switch_to(t_s, Mode::kApproach,
@@ -330,14 +468,15 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
 
     case Mode::kApproach: {
       if (!in_view(t_s, L.loss_timeout_s)) {
+        declare_loss(t_s);
         if (diag_.gear_clearance_m < L.go_around_low_height_m) {
-          switch_to(t_s, Mode::kGoAround,
-                    fmt::format("target lost for {:.2f} s during approach at {:.2f} m above the platform",
-                        loss_age, diag_.gear_clearance_m),
-                    nav);
+          end_attempt(t_s, Mode::kGoAround,
+                      fmt::format("target lost for {:.2f} s during approach at {:.2f} m above the platform",
+                          loss_age, diag_.gear_clearance_m),
+                      nav);
         } else {
-          switch_to(t_s, Mode::kSearch,
-                    fmt::format("target lost for {:.2f} s during approach", loss_age), nav);
+          end_attempt(t_s, Mode::kSearch,
+                      fmt::format("target lost for {:.2f} s during approach", loss_age), nav);
         }
         return run_mode_machine(t_s, nav);
       }
@@ -378,10 +517,11 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
 
     case Mode::kRecovery: {
       if (!in_view(t_s, L.recovery_loss_timeout_s)) {
-        switch_to(t_s, Mode::kGoAround,
-                  fmt::format("target lost for {:.2f} s in recovery at {:.2f} m above the platform",
-                      loss_age, diag_.gear_clearance_m),
-                  nav);
+        declare_loss(t_s);
+        end_attempt(t_s, Mode::kGoAround,
+                    fmt::format("target lost for {:.2f} s in recovery at {:.2f} m above the platform",
+                        loss_age, diag_.gear_clearance_m),
+                    nav);
         return run_mode_machine(t_s, nav);
       }
       const double e_xy = diag_.horizontal_error_m;
@@ -389,11 +529,79 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       // A large error matters close to the cart (the gear could catch its edge); higher up
       // the servo holds height and catches up.
       if (e_xy > L.go_around_error_m && h < L.near_height_m) {
-        switch_to(t_s, Mode::kGoAround,
-                  fmt::format("horizontal error {:.2f} m > {:.2f} m in recovery", e_xy, L.go_around_error_m),
-                  nav);
+        end_attempt(t_s, Mode::kGoAround,
+                    fmt::format("horizontal error {:.2f} m > {:.2f} m in recovery", e_xy, L.go_around_error_m),
+                    nav);
         return run_mode_machine(t_s, nav);
       }
+      // Horizontal speed relative to the platform, straight from vision (the rate of the
+      // relative vector); infinite while there are too few fixes for it.
+      Eigen::Vector3d v_rel_vision;
+      const double rel_speed = tracker_.relative_velocity(&v_rel_vision)
+                                   ? horizontal(v_rel_vision)
+                                   : std::numeric_limits<double>::infinity();
+      const bool fresh = in_view(t_s, L.descent_stale_s);
+      // Bounded decision (issue 10). The timer starts the first time below the final hold
+      // height in this recovery. final_decision_after_s later, if the nominal gate has still
+      // not led to a cut, the gate widens over final_decision_window_s, linearly from the
+      // nominal (final_descent_error_m, final_descent_rel_speed_mps) to the wide one
+      // (wide_gate_m(), max_touchdown_rel_speed_mps):
+      //   f = (waited - final_decision_after_s) / final_decision_window_s in [0, 1],
+      //   gate = nominal + f (wide - nominal),
+      // so the commit comes at the first moment the disturbance lets the error below it (the
+      // smallest error it offers, not the first within the wide gate). Within it the vehicle
+      // commits and descends into contact; not within it by the end of the window: go-around
+      // (or abort).
+      const double wide_gate = L.wide_gate_m();
+      if (std::isnan(final_t0_) && h < L.final_hold_height_m) {
+        final_t0_ = t_s;
+        log_event(t_s, "final_stage",
+                  fmt::format("below the final hold height {:.2f} m: decision in {:.1f} s",
+                              L.final_hold_height_m, L.final_decision_after_s));
+      }
+      const double waited = std::isnan(final_t0_) ? 0.0 : t_s - final_t0_;
+      diag_.final_stage_s = waited;
+      if (!std::isnan(final_t0_) && !wide_committed_ && waited >= L.final_decision_after_s) {
+        const double f =
+            L.final_decision_window_s > 0.0
+                ? std::min(1.0, (waited - L.final_decision_after_s) / L.final_decision_window_s)
+                : 1.0;
+        const double gate_now =
+            L.final_descent_error_m + f * (wide_gate - L.final_descent_error_m);
+        const double rel_now =
+            L.final_descent_rel_speed_mps +
+            f * (L.max_touchdown_rel_speed_mps - L.final_descent_rel_speed_mps);
+        if (fresh && e_xy < gate_now && rel_speed < rel_now) {
+          wide_committed_ = true;
+          diag_.wide_committed = true;
+          decide(t_s, "committed_wide",
+                 fmt::format("nominal gate ({:.3f} m, {:.2f} m/s) not met in {:.1f} s below {:.2f} m; "
+                             "error {:.3f} m < {:.3f} m, relative speed {:.2f} m/s < {:.2f} m/s "
+                             "(gate widening to {:.3f} m, {:.2f} m/s)",
+                             L.final_descent_error_m, L.final_descent_rel_speed_mps, waited,
+                             L.final_hold_height_m, e_xy, gate_now, rel_speed, rel_now, wide_gate,
+                             L.max_touchdown_rel_speed_mps));
+        } else if (waited >= L.final_decision_after_s + L.final_decision_window_s) {
+          end_attempt(t_s, Mode::kGoAround,
+                      fmt::format("final gate not met in {:.1f} s below {:.2f} m and not the wide gate "
+                                  "({:.3f} m, {:.2f} m/s) in {:.1f} s more: error {:.3f} m, relative "
+                                  "speed {:.2f} m/s",
+                                  L.final_decision_after_s, L.final_hold_height_m, wide_gate,
+                                  L.max_touchdown_rel_speed_mps, L.final_decision_window_s, e_xy,
+                                  rel_speed),
+                      nav);
+          return run_mode_machine(t_s, nav);
+        }
+      }
+      // Committed wide: leaving the wide gate (the safe one) ends the attempt.
+      if (wide_committed_ && e_xy > wide_gate) {
+        end_attempt(t_s, Mode::kGoAround,
+                    fmt::format("committed within the wide gate, but the error {:.3f} m left it ({:.3f} m)",
+                                e_xy, wide_gate),
+                    nav);
+        return run_mode_machine(t_s, nav);
+      }
+      const double cut_gate = wide_committed_ ? wide_gate : L.touchdown_error_m;
       // Touchdown test (seed 000 section 3.3): small horizontal error, steady platform, plus
       // low and slow relative to the platform.
       const Eigen::Vector3d v_rel = nav.v_W_mps - diag_.platform_v_W_mps;
@@ -403,8 +611,8 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       // near the top) and the cut dropped the vehicle at 0.72 m/s. Should the fused estimate
       // read high, the descent simply goes on into contact at the final rate.
       const double h_fused = altitude_.valid ? altitude_.h_surface_m - L.gear_height_m : h;
-      if (in_view(t_s, L.descent_stale_s) && h < L.cut_height_m && h_fused < L.cut_height_m &&
-          e_xy < L.touchdown_error_m && v_rel.norm() < L.max_touchdown_rel_speed_mps &&
+      if (fresh && h < L.cut_height_m && h_fused < L.cut_height_m &&
+          e_xy < cut_gate && v_rel.norm() < L.max_touchdown_rel_speed_mps &&
           tracker_.steady(L.steady_window_s, L.steady_tilt_deg, L.max_platform_tilt_deg,
                           &unsteady)) {
         switch_to(t_s, Mode::kTouchdown,
@@ -417,7 +625,9 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       // Visual servo: horizontal setpoint on the platform now, its velocity fed forward;
       // descend at the controlled rate only while the horizontal error is small.
       const bool near = h < L.near_height_m;
-      const double gate = near ? L.descent_gate_near_m : L.descent_gate_m;
+      const double gate = wide_committed_ ? wide_gate
+                          : near          ? L.descent_gate_near_m
+                                          : L.descent_gate_m;
       // Below the final hold height the slowest rate: the cut happens from it (soft contact).
       const double rate = h < L.final_hold_height_m ? L.descent_rate_final_mps
                           : near                    ? L.descent_rate_near_mps
@@ -427,19 +637,19 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       // before the cut, and the error at first contact is the landing's); otherwise wait low (final_wait_gap_m), so the dash
       // into contact once aligned is short (a stop-and-go cart is steady for ~2 s); climb
       // back to final_hold_height_m when the error exceeds twice the touchdown criterion.
-      Eigen::Vector3d v_rel_vision;
-      const bool aligned = e_xy < L.final_descent_error_m &&
-                           tracker_.relative_velocity(&v_rel_vision) &&
-                           horizontal(v_rel_vision) < L.final_descent_rel_speed_mps;
+      // Committed wide: the wide gate and the cut's relative speed instead.
+      const bool aligned =
+          wide_committed_
+              ? e_xy < wide_gate && rel_speed < L.max_touchdown_rel_speed_mps
+              : e_xy < L.final_descent_error_m && rel_speed < L.final_descent_rel_speed_mps;
       // The height is servoed like the horizontal position: on the gear clearance measured by
       // vision (h_sp - h), so steps of the navigation height (baro / GPS) cancel.
       const double h_floor = (aligned || h > L.final_hold_height_m) ? L.final_hover_gap_m
                                                                    : L.final_wait_gap_m;
-      if (e_xy > 2.0 * L.touchdown_error_m) {
+      if (!wide_committed_ && e_xy > 2.0 * L.touchdown_error_m) {
         recovery_h_sp_ = std::max(recovery_h_sp_, L.final_hold_height_m);
       }
       double vz_ff = 0.0;
-      const bool fresh = in_view(t_s, L.descent_stale_s);
       if (fresh && e_xy < gate && recovery_h_sp_ > h_floor) {
         recovery_h_sp_ -= rate * dt;
         vz_ff = -rate;
@@ -488,17 +698,30 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
     case Mode::kLanded:
       return hold(nav.p_W_m);
 
+    case Mode::kAborted:
+      return hold(hold_p_);
+
     case Mode::kGoAround: {
       if (std::abs(nav.p_W_m.z() - hold_p_.z()) < kGoAroundReachedBand_m) {
         if (tracker_.keyframe_streak() >= L.reacquire_frames && in_view(t_s, L.loss_timeout_s)) {
           switch_to(t_s, Mode::kObserve, "go-around altitude reached, target in view", nav);
         } else {
+          // Out of view after a go-around for another cause: a loss too (recorded once).
+          if (reacquisitions_.empty() || !std::isnan(reacquisitions_.back().t_reacquired_s)) {
+            declare_loss(t_s);
+          }
           switch_to(t_s, Mode::kSearch, "go-around altitude reached, target not in view", nav);
         }
         return run_mode_machine(t_s, nav);
       }
+      // Keep the moving cart below while climbing.
       Setpoint sp = hold(hold_p_);
-      follow_prediction(t_s, &sp);  // keep the moving cart below while climbing
+      Eigen::Vector2d p, v;
+      if (predict_platform(t_s, &p, &v)) {
+        hold_p_.head<2>() = p;
+        sp.p_W_m.head<2>() = p;
+        sp.v_W_mps.head<2>() = v;
+      }
       return sp;
     }
   }

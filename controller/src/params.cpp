@@ -1,6 +1,7 @@
 // validate() of the controller params: every check names its field.
 #include "lander/controller/params.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace lander::ctl {
@@ -53,6 +54,9 @@ void CascadeParams::validate() const {
     require(value >= 0, name, "must be >= 0");
   }
   require(max_tilt_deg > 0 && max_tilt_deg < 80, "max_tilt_deg", "must be in (0, 80)");
+  require(dist_ff_gain >= 0 && dist_ff_gain <= 1, "dist_ff_gain", "must be in [0, 1]");
+  require(dist_filter_tau_s > 0, "dist_filter_tau_s", "must be > 0");
+  require(max_dist_accel_mps2 >= 0, "max_dist_accel_mps2", "must be >= 0");
 }
 
 void TrackerParams::validate() const {
@@ -68,6 +72,19 @@ void TrackerParams::validate() const {
   require(platform_max_speed_mps > 0, "platform_max_speed_mps", "must be > 0");
   require(history_s >= fit_window_s, "history_s", "must be >= fit_window_s");
   require(nav_history_s > 0, "nav_history_s", "must be > 0");
+  require(turn_fit_window_s > 0, "turn_fit_window_s", "must be > 0");
+  require(turn_min_speed_mps > 0, "turn_min_speed_mps", "must be > 0");
+  require(max_turn_rate_radps >= 0, "max_turn_rate_radps", "must be >= 0");
+}
+
+double LandingParams::wide_gate_on_top_m() const {
+  const double footprint_m = std::hypot(skid_half_spread_m, skid_half_length_m);
+  const double drift_m = max_touchdown_rel_speed_mps * final_wait_gap_m / descent_rate_final_mps;
+  return platform_half_size_m - footprint_m - drift_m - wide_gate_margin_m;
+}
+
+double LandingParams::wide_gate_m() const {
+  return std::min(wide_gate_on_top_m(), cut_vision_radius_m);
 }
 
 void LandingParams::validate() const {
@@ -138,6 +155,27 @@ void LandingParams::validate() const {
   require(observe_follow_max_speed_mps > 0, "observe_follow_max_speed_mps", "must be > 0");
   require(observe_follow_max_accel_mps2 > 0, "observe_follow_max_accel_mps2", "must be > 0");
   require(search_predict_max_s >= 0, "search_predict_max_s", "must be >= 0");
+  require(search_expand_after_s >= 0, "search_expand_after_s", "must be >= 0");
+  require(search_climb_rate_mps >= 0, "search_climb_rate_mps", "must be >= 0");
+  require(search_max_height_m > 0, "search_max_height_m", "must be > 0");
+  require(skid_half_spread_m > 0, "skid_half_spread_m", "must be > 0");
+  require(skid_half_length_m > 0, "skid_half_length_m", "must be > 0");
+  require(wide_gate_margin_m >= 0, "wide_gate_margin_m", "must be >= 0");
+  // The wide gate must be wider than the nominal cut gate (else it adds nothing) and inside
+  // the go-around error (else recovery goes around before it could commit). The message
+  // names whichever of the two limits sets it.
+  require(platform_half_size_m > 0, "platform_half_size_m", "must be > 0");
+  require(cut_vision_radius_m > 0, "cut_vision_radius_m", "must be > 0");
+  const char* limit = wide_gate_on_top_m() <= cut_vision_radius_m ? "platform_half_size_m"
+                                                                   : "cut_vision_radius_m";
+  require(wide_gate_m() > touchdown_error_m, limit,
+          "leaves a wide gate (wide_gate_m()) no wider than touchdown_error_m: the top is too "
+          "small for the skids, the final drift and wide_gate_margin_m, or vision too narrow");
+  require(wide_gate_m() < go_around_error_m, limit,
+          "gives a wide gate (wide_gate_m()) >= go_around_error_m");
+  require(final_decision_after_s > 0, "final_decision_after_s", "must be > 0");
+  require(final_decision_window_s >= 0, "final_decision_window_s", "must be >= 0");
+  require(max_landing_attempts >= 1, "max_landing_attempts", "must be >= 1");
 }
 
 void ControllerParams::validate() const {

@@ -99,9 +99,44 @@ TEST(SearchAfterLoss, FliesToThePredictedPlatformInsteadOfHolding) {
   EXPECT_NEAR(search_speed, kCartSpeed_mps, 0.3);
 }
 
-TEST(SearchAfterLoss, HoldsOnceThePredictionIsTooOld) {
+// search_predict_max_s after the last fix the history is dropped: the search pattern's
+// centre stops moving with the predicted cart and stays where the prediction led (issue 10:
+// it used to restart an in-place sweep there; the expanding pattern now goes on around it).
+TEST(SearchAfterLoss, PatternCentreStopsOnceThePredictionIsTooOld) {
   LandingRunConfig cfg = fast_cart_config();
   cfg.controller.landing.search_predict_max_s = 2.0;
+  cfg.max_time_s = 20.0;
+  constexpr double kBlindFrom_s = 10.0;
+  cfg.visible = [&](double t, const Eigen::Isometry3d&) { return t < kBlindFrom_s; };
+  int fixes_end = -1;
+  Eigen::Vector3d centre_11 = Eigen::Vector3d::Zero(), centre_115 = Eigen::Vector3d::Zero();
+  Eigen::Vector3d centre_13 = Eigen::Vector3d::Zero(), centre_end = Eigen::Vector3d::Zero();
+  cfg.on_step = [&](double t, const HexModel&, const LandingController& c) {
+    fixes_end = c.tracker().num_fixes();
+    const Eigen::Vector3d centre = c.diagnostics().search_centre_W_m;
+    if (t <= 11.2) centre_11 = centre;
+    if (t <= 11.7) centre_115 = centre;
+    if (t <= 13.0) centre_13 = centre;
+    centre_end = centre;
+  };
+  const LandingRunResult r = run_landing(cfg);
+  SCOPED_TRACE(r.describe());
+  ASSERT_EQ(r.transitions.size(), 2u);
+  EXPECT_EQ(r.transitions[1].to, Mode::kSearch);
+  // 2 s after the last fix (~10 s) the history is dropped.
+  EXPECT_EQ(fixes_end, 0);
+  // Before that the centre moves with the predicted cart (1 m/s: 0.5 m in 0.5 s; 0.1 m for
+  // the velocity estimate and the 33 ms outer-loop steps) ...
+  EXPECT_NEAR((centre_115 - centre_11).head<2>().norm(), 0.5 * kCartSpeed_mps, 0.1);
+  // ... after it, it stays put (exactly: nothing moves it).
+  EXPECT_EQ((centre_end - centre_13).head<2>().norm(), 0.0);
+}
+
+// With the pattern off (search_spiral_speed_mps = 0) the search holds over that centre.
+TEST(SearchAfterLoss, HoldsOnceThePredictionIsTooOldWithoutPattern) {
+  LandingRunConfig cfg = fast_cart_config();
+  cfg.controller.landing.search_predict_max_s = 2.0;
+  cfg.controller.landing.search_spiral_speed_mps = 0.0;
   cfg.max_time_s = 20.0;
   constexpr double kBlindFrom_s = 10.0;
   cfg.visible = [&](double t, const Eigen::Isometry3d&) { return t < kBlindFrom_s; };

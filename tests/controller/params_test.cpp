@@ -93,6 +93,40 @@ TEST(ControllerParams, BadValueThrowsNamingTheField) {
       {"descent_rate_mps"});
 }
 
+// Issue 10's parameters: each bad value names its field.
+TEST(ControllerParams, DecisionAndDisturbanceParamsAreChecked) {
+  ControllerParams a;
+  a.cascade.dist_ff_gain = 1.5;
+  expect_config_error([&] { a.validate(); }, {"cascade", "dist_ff_gain"});
+  ControllerParams b;
+  b.cascade.dist_filter_tau_s = 0.0;
+  expect_config_error([&] { b.validate(); }, {"cascade", "dist_filter_tau_s"});
+  ControllerParams c;
+  c.tracker.turn_fit_window_s = 0.0;
+  expect_config_error([&] { c.validate(); }, {"tracker", "turn_fit_window_s"});
+  ControllerParams d;
+  d.landing.max_landing_attempts = 0;
+  expect_config_error([&] { d.validate(); }, {"landing", "max_landing_attempts"});
+  ControllerParams e;
+  e.landing.final_decision_after_s = 0.0;
+  expect_config_error([&] { e.validate(); }, {"landing", "final_decision_after_s"});
+  // A top too small for the skids, the final drift and the margin leaves no wide gate:
+  // 0.6 - 0.297 - 0.2 - 0.05 = 0.053 m is still above the 5 cm cut gate, 0.59 m is not.
+  ControllerParams f;
+  f.landing.platform_half_size_m = 0.6;
+  EXPECT_NO_THROW(f.validate());
+  f.landing.platform_half_size_m = 0.59;
+  expect_config_error([&] { f.validate(); }, {"landing", "platform_half_size_m", "wide gate"});
+  // Read from YAML like every other key.
+  ControllerParams y;
+  read_params(YAML::Load("landing: {skid_half_spread_m: 0.25, final_decision_window_s: 3}\n"
+                         "cascade: {dist_ff_gain: 0.5}"),
+              "<inline>", y);
+  EXPECT_DOUBLE_EQ(y.landing.skid_half_spread_m, 0.25);
+  EXPECT_DOUBLE_EQ(y.landing.final_decision_window_s, 3.0);
+  EXPECT_DOUBLE_EQ(y.cascade.dist_ff_gain, 0.5);
+}
+
 TEST(ControllerParams, UnknownKeyIsRejected) {
   ControllerParams p;
   expect_config_error([&] { read_params(YAML::Load("landing: {observe_frame: 40}"), "f.yaml", p); },

@@ -28,6 +28,10 @@ struct CascadeDiagnostics {
   Setpoint setpoint;                                       ///< last outer-loop setpoint
   Eigen::Vector3d v_sp_W_mps{Eigen::Vector3d::Zero()};     ///< velocity setpoint (m/s)
   Eigen::Vector3d a_cmd_W_mps2{Eigen::Vector3d::Zero()};   ///< acceleration command (m/s^2)
+  /// Estimated horizontal disturbance acceleration in W (m/s^2, z = 0): the external force
+  /// per mass the accelerometer sees (see CascadeParams::dist_ff_gain); dist_ff_gain times it
+  /// is subtracted from a_cmd.
+  Eigen::Vector3d dist_W_mps2{Eigen::Vector3d::Zero()};
   Eigen::Vector3d force_sp_W_N{Eigen::Vector3d::Zero()};   ///< thrust vector setpoint (N)
   Eigen::Quaterniond q_sp_WB{Eigen::Quaterniond::Identity()};  ///< attitude setpoint
   Eigen::Vector3d omega_sp_B_radps{Eigen::Vector3d::Zero()};   ///< body-rate setpoint
@@ -47,12 +51,14 @@ class CascadeController {
 
   // Outer loop: P position -> PI velocity -> acceleration command -> thrust vector
   // F_W = m (a_cmd + g e_z), tilt-limited to max_tilt_deg (seed 003 eq. 3-4 linearised form;
-  // here the full thrust-vector form).
+  // here the full thrust-vector form). The horizontal disturbance estimate of update_inner()
+  // is fed forward: a_cmd_xy -= dist_ff_gain d_xy.
   void update_outer(double t_s, const Setpoint& sp, const NavState& nav);
 
   // Inner loop: attitude from (F_W, yaw) -> body-rate setpoint -> rate PI -> torque
   // tau = J alpha + omega x J omega (seed 003 eq. 1) -> mixer. Returns rotor speeds.
   // Uses nav.q_WB and nav.omega_B_radps; if nav is invalid, levels with the gyro.
+  // Also updates the disturbance estimate from imu.accel_B_mps2 (with a valid nav).
   MixerOutput update_inner(double t_s, const NavState& nav, const ImuSample& imu);
 
   // Tilt limit of the thrust vector (deg, in (0, 80)), at most CascadeParams::max_tilt_deg;
@@ -71,11 +77,15 @@ class CascadeController {
   static Eigen::Quaterniond attitude_from_thrust(const Eigen::Vector3d& force_W, double yaw_rad);
 
  private:
+  // Low-passes the horizontal external acceleration read by the accelerometer (see .cpp).
+  void update_disturbance(double dt, const NavState& nav, const ImuSample& imu);
+
   VehicleParams v_;
   CascadeParams g_;
   HexMixer mixer_;
   Eigen::Vector3d vel_int_{Eigen::Vector3d::Zero()};   // velocity integral (m/s^2)
   Eigen::Vector3d rate_int_{Eigen::Vector3d::Zero()};  // rate integral (rad/s^2)
+  Eigen::Vector2d dist_W_{Eigen::Vector2d::Zero()};    // horizontal disturbance (m/s^2)
   Eigen::Vector3d force_sp_W_{Eigen::Vector3d::Zero()};
   double yaw_sp_{0.0};
   double tilt_limit_deg_{30.0};

@@ -16,6 +16,7 @@
 #pragma once
 
 #include <array>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -39,6 +40,11 @@ enum class Mode {
   kTouchdown,  ///< motors cut, waiting for contact
   kLanded,     ///< contact confirmed; motors stay off
   kGoAround,   ///< climb back to the observe height after a loss or a large error
+  kAborted,    ///< terminal, after max_landing_attempts failed attempts: climbs straight up to
+               ///< go_around_height_m above the last known platform top (at least
+               ///< search_min_height_m above the surface) and holds that point and the
+               ///< heading, motors on, for the operator or a return-home outside this
+               ///< controller; nothing leaves it
 };
 
 // Lower-case name ("search", "observe", ...), as written into summary.json.
@@ -49,6 +55,55 @@ struct ModeTransition {
   Mode from{Mode::kSearch};
   Mode to{Mode::kSearch};
   std::string reason;  ///< human-readable cause with the figures that triggered it
+};
+
+// One entry of the landing decision log (issue 10).
+struct LandingEvent {
+  double t_s{0.0};   ///< time (s)
+  int attempt{0};    ///< attempt it belongs to (1-based; 0 before the first approach)
+  /// "attempt_started" (approach entered), "final_stage" (first below final_hold_height_m in
+  /// recovery: the decision timer starts), "committed_wide" (after final_decision_after_s,
+  /// the error within the gate widening towards the wide gate: descent into contact, the cut
+  /// allowed within the wide gate), "committed_nominal" (the cut
+  /// within the nominal gate), "cut" (motors cut, either gate), "landed" (contact),
+  /// "go_around", "lost" (the target lost high in approach: back to search), "aborted".
+  std::string what;
+  std::string reason;  ///< human-readable, with the figures that decided it
+};
+
+// The landing decisions of a flight, for summary.json as
+//   landing_decision: {attempts, decision, reason, t_s, wide_gate_m, events: [{t_s, attempt,
+//   what, reason}, ...]}.
+struct LandingDecisionLog {
+  int attempts{0};               ///< landing attempts started (entries into approach)
+  /// The latest decision: "none" (none yet), "committed_nominal", "committed_wide",
+  /// "go_around", "lost", "aborted". After a landing it stays the commit that led to it.
+  std::string decision{"none"};
+  std::string reason;            ///< the reason of that decision, with its figures
+  double t_s{std::numeric_limits<double>::quiet_NaN()};  ///< time of that decision (s)
+  double wide_gate_m{0.0};       ///< the wide gate of LandingParams::wide_gate_m() (m)
+  std::vector<LandingEvent> events;  ///< every event, in time order
+};
+
+// One loss of the target and its re-acquisition (issue 10), for summary.json as
+//   reacquisitions: [{t_last_seen_s, t_lost_s, lost_in, t_reacquired_s, duration_s,
+//   prediction_error_m}, ...]   (NaN written as null).
+struct Reacquisition {
+  double t_last_seen_s{0.0};  ///< last detection before the loss (s)
+  double t_lost_s{0.0};       ///< loss declared (s): the switch out of observe, approach or
+                              ///< recovery after loss_timeout_s / recovery_loss_timeout_s, or
+                              ///< a go-around (for another cause) reaching its height with
+                              ///< the target out of view
+  Mode lost_in{Mode::kObserve};  ///< mode the target was lost in (to_string() for JSON)
+  /// reacquire_frames consecutive keyframes again, in any mode (s); NaN while (or if never)
+  /// re-acquired.
+  double t_reacquired_s{std::numeric_limits<double>::quiet_NaN()};
+  /// Horizontal distance of the first fix after the loss from where the motion model of the
+  /// loss (PlatformTracker::motion() then) put the platform at that fix's time (m); NaN if
+  /// not re-acquired or there was no model.
+  double prediction_error_m{std::numeric_limits<double>::quiet_NaN()};
+  /// t_reacquired_s - t_lost_s (s); NaN if not re-acquired.
+  double duration_s() const { return t_reacquired_s - t_lost_s; }
 };
 
 // Output of one inner step.
@@ -77,6 +132,11 @@ struct LandingDiagnostics {
   bool motors_cut{false};
   bool contact{false};
   double contact_t_s{0.0};                  ///< time contact was confirmed (s)
+  double final_stage_s{0.0};                ///< recovery: time since first below
+                                            ///< final_hold_height_m (s), 0 before
+  bool wide_committed{false};               ///< recovery: committed within the wide gate
+  Eigen::Vector3d search_centre_W_m{Eigen::Vector3d::Zero()};  ///< search after a loss: the
+                                            ///< centre of the pattern (the prediction) (m)
 };
 
 class LandingController {
@@ -104,6 +164,11 @@ class LandingController {
   Mode mode() const { return mode_; }
   const std::vector<ModeTransition>& transitions() const { return transitions_; }
   bool landed() const { return mode_ == Mode::kLanded; }
+  bool aborted() const { return mode_ == Mode::kAborted; }  ///< terminal: see Mode::kAborted
+  /// Attempts, the latest decision and every decision event (see LandingDecisionLog).
+  const LandingDecisionLog& decision_log() const { return decisions_; }
+  /// Every loss of the target after it was first acquired, in order (see Reacquisition).
+  const std::vector<Reacquisition>& reacquisitions() const { return reacquisitions_; }
   const LandingDiagnostics& diagnostics() const { return diag_; }
   const CascadeDiagnostics& cascade_diagnostics() const { return cascade_.diagnostics(); }
   const PlatformTracker& tracker() const { return tracker_; }
@@ -114,16 +179,30 @@ class LandingController {
   Setpoint run_mode_machine(double t_s, const NavState& nav);
   void detect_contact(double t_s, const ImuSample& imu, const NavState& nav);
   bool in_view(double t_s, double timeout_s) const;
-  double platform_z() const;  // last known platform height, or 0 (ground)
+  double platform_z() const;  // platform height of the last fix, even after the history
+                              // was dropped; 0 (ground) before the first
   Setpoint hold(const Eigen::Vector3d& p) const;
-  // Search with nothing to predict from, t_spiral_s after the in-place heading sweep: moves
-  // the setpoint along an outward spiral around hold_p_ (no-op before it starts).
-  void search_spiral(double t_spiral_s, Setpoint* sp) const;
-  // Search / go-around after a loss: sets sp's horizontal position (and hold_p_) to the
-  // tracker's prediction of the platform now and its velocity as feed-forward; returns false
-  // (and drops the history) when there is no fix or the last is older than
-  // search_predict_max_s.
-  bool follow_prediction(double t_s, Setpoint* sp);
+  // Height in W that is search_min_height_m above the surface below (by the fused altitude;
+  // above the W origin plane without one) (m).
+  double search_min_z(const NavState& nav) const;
+  // Outward spiral t_spiral_s after it starts: offset from its centre and velocity relative
+  // to it (both zero before it starts or with search_spiral_speed_mps = 0).
+  void spiral_offset(double t_spiral_s, Eigen::Vector2d* off, Eigen::Vector2d* v) const;
+  // Search / go-around after a loss: the motion model's prediction of the platform now and
+  // its velocity (PlatformTracker::motion()); false (and the history dropped) when there is
+  // no fix or the last is older than search_predict_max_s.
+  bool predict_platform(double t_s, Eigen::Vector2d* p, Eigen::Vector2d* v);
+  // Search after a loss: the prediction, then an expanding pattern around it (see .cpp).
+  Setpoint search_after_loss(double t_s);
+  // Ends the current attempt without a landing: to `next` (go-around or search), or to
+  // aborted once max_landing_attempts are used; logs the decision.
+  void end_attempt(double t_s, Mode next, const std::string& why, const NavState& nav);
+  // A loss of the target: opens a Reacquisition record with the motion model of now.
+  void declare_loss(double t_s);
+  // Closes an open Reacquisition record once the target is re-acquired.
+  void check_reacquired(double t_s);
+  void log_event(double t_s, const std::string& what, const std::string& reason);
+  void decide(double t_s, const std::string& decision, const std::string& reason);
 
   ControllerParams p_;
   CascadeController cascade_;
@@ -151,6 +230,16 @@ class LandingController {
   Setpoint last_sp_;
   RotorCommand last_cmd_;
   long rejected_inputs_{0};
+  // Issue 10: bounded decisions, search after a loss, records.
+  double final_t0_{std::numeric_limits<double>::quiet_NaN()};  // final stage entry (s)
+  bool wide_committed_{false};
+  bool search_after_loss_{false};    // search entered with a fix history
+  double search_t_seen_{0.0};        // last fix before that search's loss (s)
+  Eigen::Vector2d search_centre_{Eigen::Vector2d::Zero()};  // pattern centre (m)
+  PlatformMotion loss_motion_;       // motion model when the open loss was declared
+  double last_platform_z_{0.0};      // height of the last fix seen (m), see platform_z()
+  LandingDecisionLog decisions_;
+  std::vector<Reacquisition> reacquisitions_;
 };
 
 }  // namespace lander::ctl

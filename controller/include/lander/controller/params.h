@@ -65,6 +65,18 @@ struct CascadeParams {
   double rate_kp_yaw{8.0};           ///< yaw rate gain (1/s)
   double rate_ki_yaw{2.0};           ///< yaw rate integral gain (1/s^2)
   double max_int_alpha_radps2{5.0};  ///< anti-windup bound of the rate integral (rad/s^2)
+  // Disturbance feed-forward (issue 10): the accelerometer's body-x/y specific force is the
+  // external (drag, wind) force per mass, since the rotors push along body z only; low-passed
+  // and rotated into W it is subtracted from the horizontal acceleration command, so a gust
+  // is met within ~dist_filter_tau_s instead of the integrator's ~vel_kp_xy / vel_ki_xy
+  // (2.5 s).
+  double dist_ff_gain{1.0};          ///< share of that estimate fed forward, in [0, 1]; 0 = off
+  double dist_filter_tau_s{0.2};     ///< its first-order low-pass time constant (s), > 0:
+                                     ///< 0.03 m/s^2 of accelerometer noise at 250 Hz becomes
+                                     ///< ~3 mm/s^2; a 4 s gust is cut to ~30 %, a 2 s gust
+                                     ///< correlation time (wind.h) to ~10 %
+  double max_dist_accel_mps2{3.0};   ///< bound of the estimate's norm (m/s^2), >= 0: ~17 deg
+                                     ///< of tilt, more than the 3.7 N of drag in a 6 m/s wind
   void validate() const;
 };
 
@@ -92,6 +104,9 @@ void visit_fields(V& v, CascadeParams& p) {
   v("rate_kp_yaw", p.rate_kp_yaw);
   v("rate_ki_yaw", p.rate_ki_yaw);
   v("max_int_alpha_radps2", p.max_int_alpha_radps2);
+  v("dist_ff_gain", p.dist_ff_gain);
+  v("dist_filter_tau_s", p.dist_filter_tau_s);
+  v("max_dist_accel_mps2", p.max_dist_accel_mps2);
 }
 
 // Platform tracking from vision (seed 000 eq. 24-28).
@@ -114,6 +129,15 @@ struct TrackerParams {
   double platform_max_speed_mps{2.0};   ///< plausibility bound of the platform speed (m/s)
   double history_s{10.0};               ///< how long observations are kept (s)
   double nav_history_s{1.0};            ///< nav-state buffer for latency (s)
+  // Motion model for the prediction after a loss (PlatformTracker::motion(), issue 10).
+  double turn_fit_window_s{3.0};        ///< window of the quadratic fit that gives speed,
+                                        ///< heading, turn rate and braking (s): ~90 fixes;
+                                        ///< with 2.7 cm of fix noise at 8 m the turn rate is
+                                        ///< good to ~0.01 rad/s (2 s: ~0.025 rad/s)
+  double turn_min_speed_mps{0.2};       ///< below this speed no heading, turn or braking is
+                                        ///< estimated (the cart is held at its velocity) (m/s)
+  double max_turn_rate_radps{0.5};      ///< bound of the turn rate (rad/s): a 1 m/s cart on a
+                                        ///< 2 m radius; tighter is fit noise
   void validate() const;
 };
 
@@ -131,6 +155,9 @@ void visit_fields(V& v, TrackerParams& p) {
   v("platform_max_speed_mps", p.platform_max_speed_mps);
   v("history_s", p.history_s);
   v("nav_history_s", p.nav_history_s);
+  v("turn_fit_window_s", p.turn_fit_window_s);
+  v("turn_min_speed_mps", p.turn_min_speed_mps);
+  v("max_turn_rate_radps", p.max_turn_rate_radps);
 }
 
 // Landing mode machine (seed 000 section 3) and the safety behaviour the paper leaves out.
@@ -244,8 +271,67 @@ struct LandingParams {
                                           ///< swings little and keeps a platform ahead
   double search_predict_max_s{10.0};      ///< after a loss, search (and go-around) fly to the
                                           ///< tracker's prediction of the platform for at most
-                                          ///< this long after the last detection; then the
-                                          ///< history is dropped and search holds (s)
+                                          ///< this long after the last fix; then the history
+                                          ///< is dropped and the search pattern's centre stays
+                                          ///< where the prediction led (s)
+  double search_expand_after_s{5.0};      ///< after a loss, fly to the prediction alone until
+                                          ///< this long after the last fix, then around it an
+                                          ///< outward spiral (search_spiral_spacing_m,
+                                          ///< search_spiral_speed_mps) sweeping the heading (s):
+                                          ///< a stop-and-go cart (0.6 m/s^2) is within the
+                                          ///< ~3 m half-footprint at 6 m for ~3 s of it
+  double search_climb_rate_mps{0.3};      ///< ... and climbing at this rate for a wider view
+                                          ///< (m/s), 0 = off
+  double search_max_height_m{10.0};       ///< ... up to this height above the platform top
+                                          ///< (m): the view's narrow half-width grows from
+                                          ///< ~3 m at 6 m to ~5.5 m, and the target is
+                                          ///< detected from 15 m (DESIGN.md)
+  // Bounded landing decision (issue 10). The geometry is the flight software's own belief,
+  // nominal copies of models/cart.xml and models/hexarotor.xml (like gear_height_m).
+  double platform_half_size_m{0.9};       ///< half the side of the square landing top (m):
+                                          ///< cart.xml "platform" box 0.9 x 0.9 (half sizes)
+  double skid_half_spread_m{0.21};        ///< skids' outer edges from the vehicle's centre
+                                          ///< line (m): hexarotor.xml skids at y = +-0.20 m,
+                                          ///< radius 0.01 m
+  double skid_half_length_m{0.21};        ///< skids' ends from the centre along body x (m):
+                                          ///< x = +-0.20 m, radius 0.01 m
+  double wide_gate_margin_m{0.05};        ///< margin of the wide gate for vision error and a
+                                          ///< tilted gear at contact (m); see wide_gate_m()
+  double cut_vision_radius_m{0.17};       ///< largest horizontal offset from the platform
+                                          ///< centre at which vision still localises the
+                                          ///< platform at the cut (m): the cut needs a fresh
+                                          ///< detection. Own belief of the target and camera:
+                                          ///< the 0.40 m code map (models/target.yaml), the
+                                          ///< camera 0.18 m above the top at the cut (mount
+                                          ///< -0.08 m) seeing 0.36 m x 0.20 m (fx 640 px),
+                                          ///< a 5 x 5 window of 2.5 cm cells needed: across
+                                          ///< the narrow axis 0.20 + 0.10 - 0.125 = 0.175 m
+  double final_decision_after_s{30.0};    ///< in recovery, this long after first going below
+                                          ///< final_hold_height_m without a cut, the final
+                                          ///< gate starts widening towards the wide gate (s):
+                                          ///< the nominal final stage takes ~2 s
+                                          ///< (default.yaml); a stop-and-go cart (8.7 s
+                                          ///< cycle, stands 2 s) is met in its first or
+                                          ///< second stop (up to ~18 s in 6 seeds of
+                                          ///< cart_stop_and_go.yaml): 30 s leaves a third
+  double final_decision_window_s{5.0};    ///< ... linearly over this long, to wide_gate_m()
+                                          ///< and max_touchdown_rel_speed_mps; not within it
+                                          ///< by then: go-around (s); 0 = the wide gate at once
+  int max_landing_attempts{3};            ///< approaches (each entry into approach) before a
+                                          ///< failed one ends in aborted instead of another
+                                          ///< go-around or search
+  // The wide final gate (m). From the geometry: the skids' footprint (a rectangle of
+  // half-sides skid_half_spread_m x skid_half_length_m, any heading relative to the cart, so
+  // its circumscribed radius) must stay on the top's inscribed circle after the drift of the
+  // final descent (max_touchdown_rel_speed_mps for final_wait_gap_m / descent_rate_final_mps),
+  // with wide_gate_margin_m to spare:
+  //   on_top = platform_half_size_m - hypot(skid_half_spread_m, skid_half_length_m)
+  //            - max_touchdown_rel_speed_mps * final_wait_gap_m / descent_rate_final_mps
+  //            - wide_gate_margin_m
+  // and the cut must still see the target: wide = min(on_top, cut_vision_radius_m).
+  // Defaults: on_top = 0.9 - 0.297 - 0.2 - 0.05 = 0.353 m; wide = 0.17 m (vision-limited).
+  double wide_gate_on_top_m() const;
+  double wide_gate_m() const;
   void validate() const;
 };
 
@@ -303,6 +389,17 @@ void visit_fields(V& v, LandingParams& p) {
   v("observe_follow_max_speed_mps", p.observe_follow_max_speed_mps);
   v("observe_follow_max_accel_mps2", p.observe_follow_max_accel_mps2);
   v("search_predict_max_s", p.search_predict_max_s);
+  v("search_expand_after_s", p.search_expand_after_s);
+  v("search_climb_rate_mps", p.search_climb_rate_mps);
+  v("search_max_height_m", p.search_max_height_m);
+  v("platform_half_size_m", p.platform_half_size_m);
+  v("skid_half_spread_m", p.skid_half_spread_m);
+  v("skid_half_length_m", p.skid_half_length_m);
+  v("wide_gate_margin_m", p.wide_gate_margin_m);
+  v("cut_vision_radius_m", p.cut_vision_radius_m);
+  v("final_decision_after_s", p.final_decision_after_s);
+  v("final_decision_window_s", p.final_decision_window_s);
+  v("max_landing_attempts", p.max_landing_attempts);
 }
 
 // Everything the controller reads, one YAML mapping with four sections.

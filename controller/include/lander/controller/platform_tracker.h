@@ -31,6 +31,33 @@ struct PlatformFix {
   Eigen::Vector3d p_dr_m{Eigen::Vector3d::Zero()};
 };
 
+// The platform's horizontal motion as its recent fixes support it (issue 10): speed and
+// heading with a constant turn rate (a turning cart keeps turning) and, when it was braking,
+// a constant deceleration to a stop (a stopping cart stops). What search and go-around fly to
+// after a loss.
+//
+// Motion from t0 (tau = t - t0 >= 0):
+//   s(tau)   = max(0, speed + accel tau)       accel <= 0 (an accelerating cart is held at
+//                                              its speed: the search widens anyway)
+//   psi(tau) = heading + turn_rate tau
+//   p(tau)   = p0 + integral_0^tau s(u) (cos psi(u), sin psi(u), 0) du
+// For accel = 0 this is the circle p0 + speed / turn_rate (sin psi - sin psi0,
+// cos psi0 - cos psi, 0) (a straight line for turn_rate = 0).
+struct PlatformMotion {
+  bool valid{false};                                 ///< false without any fix
+  double t0_s{0.0};                                  ///< time of the last fix (s)
+  Eigen::Vector3d p0_W_m{Eigen::Vector3d::Zero()};   ///< platform at t0 in W (m), smoothed
+  double speed_mps{0.0};         ///< horizontal speed at t0 (m/s), <= platform_max_speed_mps
+  double heading_rad{0.0};       ///< direction of travel at t0, from W +x towards +y (rad)
+  double turn_rate_radps{0.0};   ///< constant turn rate (rad/s), + counter-clockwise seen
+                                 ///< from above; 0 below turn_min_speed_mps
+  double accel_mps2{0.0};        ///< along-track acceleration (m/s^2), <= 0
+  /// Position at t_s (m); p0 for t_s <= t0.
+  Eigen::Vector3d position_at(double t_s) const;
+  /// Velocity at t_s (m/s): s(tau) (cos psi, sin psi, 0).
+  Eigen::Vector3d velocity_at(double t_s) const;
+};
+
 class PlatformTracker {
  public:
   PlatformTracker(const TrackerParams& params, const CameraMount& mount);
@@ -94,6 +121,19 @@ class PlatformTracker {
   // max_poly_extrapolation_s past the last fix, continued linearly beyond, and its distance
   // from the last fix bounded by platform_max_speed_mps * horizon.
   Eigen::Vector3d predict(double t_s) const;
+
+  // The motion model of PlatformMotion at the last fix: a per-axis quadratic least-squares
+  // fit p(d) = a + b d + c d^2 (d = t - t_last) of the dead-reckoned fixes p_dr_m over
+  // turn_fit_window_s gives v = b and acceleration acc = 2 c at the last fix; then
+  //   speed = |v_xy|, heading = atan2(v_y, v_x),
+  //   turn_rate = (v_x acc_y - v_y acc_x) / speed^2   (bounded by max_turn_rate_radps),
+  //   accel = min(0, v . acc / speed),
+  // the last two 0 below turn_min_speed_mps, and each 0 unless its acceleration component
+  // exceeds 3 times the fit's standard error of acc (from the residuals): a turn or braking
+  // the fixes cannot tell from noise is not extrapolated. p0 is a moved into W by the last
+  // fix's offset p_W_m - p_dr_m (its height that of the last fix). With fewer than 6 fixes spanning
+  // 0.5 s in the window: the last fix and velocity(), no turn. Invalid without a fix.
+  PlatformMotion motion() const;
 
   // Platform velocity in W at the last fix (m/s), speed-bounded; 0 before the first fix.
   // A constant-velocity Kalman filter per axis (white-noise acceleration
