@@ -103,6 +103,11 @@ std::optional<Outcome> LandingJudge::update(double tn, const VehicleTruth& truth
   if (t_landed_confirm_ >= 0 && tn - t_landed_confirm_ >= 1.0) {
     return Outcome{"landed", "resting on the platform with motors cut for 1 s"};
   }
+  if (c.aborted()) {
+    const ctl::LandingDecisionLog& dl = c.decision_log();
+    return Outcome{"aborted", fmt::format("the flight software aborted the landing at t = {:.2f} s after {} "
+                                          "attempts: {}", tn, dl.attempts, dl.reason)};
+  }
   return std::nullopt;
 }
 
@@ -268,6 +273,22 @@ void Recorder::finish(const Outcome& outcome, const flight::FlightStack& fs, Jso
   }
   summary["mode_transitions"] = transitions;
   summary["final_mode"] = ctl::to_string(c.mode());
+  // The landing decisions (attempts, the latest decision and every event) and each loss of
+  // the target with its re-acquisition (NaN written as null).
+  const ctl::LandingDecisionLog& dl = c.decision_log();
+  Json events = Json::array();
+  for (const ctl::LandingEvent& e : dl.events) {
+    events.push_back({{"t_s", e.t_s}, {"attempt", e.attempt}, {"what", e.what}, {"reason", e.reason}});
+  }
+  summary["landing_decision"] = {{"attempts", dl.attempts}, {"decision", dl.decision}, {"reason", dl.reason},
+                                 {"t_s", dl.t_s}, {"wide_gate_m", dl.wide_gate_m}, {"events", events}};
+  Json reacq = Json::array();
+  for (const ctl::Reacquisition& r : c.reacquisitions()) {
+    reacq.push_back({{"t_last_seen_s", r.t_last_seen_s}, {"t_lost_s", r.t_lost_s},
+                     {"lost_in", ctl::to_string(r.lost_in)}, {"t_reacquired_s", r.t_reacquired_s},
+                     {"duration_s", r.duration_s()}, {"prediction_error_m", r.prediction_error_m}});
+  }
+  summary["reacquisitions"] = reacq;
   Json vision = Json::object();
   vision["frames"] = frames_;
   vision["detections"] = detections_;
