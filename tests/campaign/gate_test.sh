@@ -204,7 +204,7 @@ if mode == "worse":
         extra = get(r, "pairing", "inputs_only_in_current")
     except (KeyError, TypeError):
         extra = None
-    check(isinstance(extra, list) and any(isinstance(x, str) and x.startswith("controller.") for x in extra),
+    check(isinstance(extra, list) and any(isinstance(x, str) and x.startswith("flight.controller.") for x in extra),
           f"the worse knobs listed as inputs only the current campaign has (got {extra})")
 elif mode == "same":
     check(verdict == "pass", f"verdict 'pass' (got {verdict!r})")
