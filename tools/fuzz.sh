@@ -23,7 +23,10 @@ for t in fuzz_scenario:scenario fuzz_target_camera:target_camera fuzz_detector:d
   corpus="tests/fuzz/corpus/${t##*:}"
   mkdir -p "$work/$exe" "$work/$exe-artifacts"
   echo "fuzz: $exe for ${SECONDS_EACH} s on $corpus"
-  if ! "build-san/tests/fuzz/$exe" -max_total_time="$SECONDS_EACH" -timeout=30 -rss_limit_mb=4096 \
+  # FUZZ_SEED fixes libFuzzer's random seed (CI: the same input sequence every run).
+  seed_opt=()
+  if [[ -n "${FUZZ_SEED:-}" ]]; then seed_opt=(-seed="$FUZZ_SEED"); fi
+  if ! "build-san/tests/fuzz/$exe" "${seed_opt[@]}" -max_total_time="$SECONDS_EACH" -timeout=30 -rss_limit_mb=4096 \
       -max_len=262144 -print_final_stats=1 -artifact_prefix="$work/$exe-artifacts/" \
       "$work/$exe" "$corpus" > "$work/$exe.log" 2>&1; then
     status=1

@@ -33,7 +33,7 @@ if [[ "$mode" == ci ]]; then
   ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:$ASAN_BASE}" \
     ctest --output-on-failure -j2 --timeout 1500 -L unit -E '_NOT_BUILT' "$@"
   cd ..
-  bash tools/fuzz.sh "${FUZZ_SECONDS:-20}"
+  FUZZ_SEED="${FUZZ_SEED:-1}" bash tools/fuzz.sh "${FUZZ_SECONDS:-20}"
   exit 0
 fi
 cmake --build build-san -j"$(nproc)" >> build-san.log 2>&1 || { tail -50 build-san.log; exit 1; }
