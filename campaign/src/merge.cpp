@@ -23,8 +23,6 @@ using json = nlohmann::ordered_json;
 
 namespace {
 
-std::string read_or_empty(const std::string& path) { return sim::read_file_text(path, true); }
-
 // One completed run as the merge sees it.
 struct Row {
   std::string id, scenario, status, outcome, detail;
@@ -201,7 +199,7 @@ MergeResult merge_campaign(const std::string& dir, const MergeOptions& o) {
   }
   json plan;
   try {
-    plan = json::parse(read_or_empty(plan_path));
+    plan = json::parse(sim::read_file_text(plan_path, true));
   } catch (const json::exception& e) {
     throw ConfigError(plan_path + ": unreadable (" + e.what() + ")");
   }
@@ -221,7 +219,7 @@ MergeResult merge_campaign(const std::string& dir, const MergeOptions& o) {
     const std::string rdir = dir + "/runs/" + id;
     json rec;
     try {
-      rec = json::parse(read_or_empty(rdir + "/run.json"));
+      rec = json::parse(sim::read_file_text(rdir + "/run.json", true));
     } catch (const json::exception&) {
       res.missing.push_back(id);
       continue;
@@ -238,7 +236,7 @@ MergeResult merge_campaign(const std::string& dir, const MergeOptions& o) {
     r.wall = num(rec, "wall_s");
     if (r.status == "ok") {
       try {
-        const json s = json::parse(read_or_empty(rdir + "/summary.json"));
+        const json s = json::parse(sim::read_file_text(rdir + "/summary.json", true));
         r.offset = num(s, "touchdown_offset_m");
         r.speed = num(s, "touchdown_rel_speed_mps");
         r.tilt = num(s, "touchdown_tilt_deg");

@@ -29,8 +29,6 @@ using json = nlohmann::ordered_json;
 
 namespace {
 
-std::string read_or_empty(const std::string& path) { return sim::read_file_text(path, true); }
-
 volatile sig_atomic_t g_stop = 0;
 void on_stop_signal(int) { g_stop = 1; }
 
@@ -56,7 +54,7 @@ class StopSignals {
 
 // The last `max_bytes` of a file, cut at a line start where possible.
 std::string file_tail(const std::string& path, std::size_t max_bytes) {
-  std::string s = read_or_empty(path);
+  std::string s = sim::read_file_text(path, true);
   if (s.size() <= max_bytes) return s;
   s = s.substr(s.size() - max_bytes);
   const auto nl = s.find('\n');
@@ -124,7 +122,7 @@ json finish_record(const Active& a, const sim::ExitStatus& st, double wall_s) {
   bool have_summary = false;
   if (fs::exists(summary_path)) {
     try {
-      summary = json::parse(read_or_empty(summary_path));
+      summary = json::parse(sim::read_file_text(summary_path, true));
       have_summary = summary.is_object() && summary.contains("outcome") &&
                      summary["outcome"].is_string();
     } catch (const json::exception& e) {
@@ -170,7 +168,7 @@ json finish_record(const Active& a, const sim::ExitStatus& st, double wall_s) {
 }  // namespace
 
 json read_run_record(const std::string& run_dir) {
-  return json::parse(read_or_empty(run_dir + "/run.json"));
+  return json::parse(sim::read_file_text(run_dir + "/run.json", true));
 }
 
 void write_plan(const Campaign& c, const std::vector<PlannedRun>& plan, const std::string& out_dir) {
@@ -180,7 +178,7 @@ void write_plan(const Campaign& c, const std::vector<PlannedRun>& plan, const st
   if (fs::exists(path)) {
     json old;
     try {
-      old = json::parse(read_or_empty(path));
+      old = json::parse(sim::read_file_text(path, true));
     } catch (const json::exception& e) {
       throw ConfigError(path + ": unreadable (" + e.what() + "); remove it or use another --out");
     }
@@ -191,7 +189,7 @@ void write_plan(const Campaign& c, const std::vector<PlannedRun>& plan, const st
     return;
   }
   sim::write_json_file(path, j);
-  sim::write_file_atomic(out_dir + "/campaign.yaml", read_or_empty(c.file));
+  sim::write_file_atomic(out_dir + "/campaign.yaml", sim::read_file_text(c.file, true));
 }
 
 RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan,
