@@ -360,7 +360,7 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
   }
   const double loss_age = t_s - tracker_.last_detection_t();
   check_reacquired(t_s);
-  diag_.final_stage_s = (mode_ == Mode::kRecovery && !std::isnan(final_t0_)) ? t_s - final_t0_ : 0.0;
+  diag_.final_stage_s = 0.0;  // recovery sets it
 
   switch (mode_) {
     case Mode::kSearch: {

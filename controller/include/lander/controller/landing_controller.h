@@ -64,9 +64,9 @@ struct LandingEvent {
   /// "attempt_started" (approach entered), "final_stage" (first below final_hold_height_m in
   /// recovery: the decision timer starts), "committed_wide" (after final_decision_after_s,
   /// the error within the gate widening towards the wide gate: descent into contact, the cut
-  /// allowed within the wide gate), "committed_nominal" (the cut
-  /// within the nominal gate), "cut" (motors cut, either gate), "landed" (contact),
-  /// "go_around", "lost" (the target lost high in approach: back to search), "aborted".
+  /// allowed within the wide gate), "committed_nominal" (the cut within the nominal gate),
+  /// "cut" (motors cut, either gate), "landed" (contact), "go_around", "lost" (the target
+  /// lost high in approach: back to search), "aborted".
   std::string what;
   std::string reason;  ///< human-readable, with the figures that decided it
 };
@@ -135,8 +135,9 @@ struct LandingDiagnostics {
   double final_stage_s{0.0};                ///< recovery: time since first below
                                             ///< final_hold_height_m (s), 0 before
   bool wide_committed{false};               ///< recovery: committed within the wide gate
-  Eigen::Vector3d search_centre_W_m{Eigen::Vector3d::Zero()};  ///< search after a loss: the
-                                            ///< centre of the pattern (the prediction) (m)
+  Eigen::Vector3d search_centre_W_m{Eigen::Vector3d::Zero()};  ///< search: the centre of
+                                            ///< its pattern (after a loss the prediction, else
+                                            ///< the hold point) (m)
 };
 
 class LandingController {
