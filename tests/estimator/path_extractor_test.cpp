@@ -408,6 +408,16 @@ TEST(PathExtractor, StraightThinRoute) {
   run_route("straight 16 px", r);
 }
 
+TEST(PathExtractor, StraightRouteWithoutErosion) {
+  // erode_px = 1: the mask reaches the image border where the route leaves the frame; the
+  // thinning must not leave a bar along the border there (OpenCV's thinning never deletes its
+  // input's outermost pixels).
+  PathExtractorParams p;
+  p.erode_px = 1;
+  const Route r = corner_route({{-40, 700}, {1320, 20}});
+  run_route("straight, no erosion", r, test_camera(), p);
+}
+
 TEST(PathExtractor, RightAngleCorner) {
   // Vertex in the middle of cell (5, 8) (x 639.5 .. 767.5, y 575.5 .. 647.5): the cell's point
   // is the mean of both legs.

@@ -133,11 +133,18 @@ PathObservation PathExtractor::extract(const cv::Mat& bgr, Debug* debug) const {
 
   // eq. 8-9: thinning A (x) B = A - (A hit-or-miss B), iterated with Zhang-Suen's pair of
   // sub-iterations until nothing changes: a one-pixel wide, 8-connected centre line.
-  cv::Mat centre;
-  if (cv::countNonZero(body) > 0)
-    cv::ximgproc::thinning(body, centre, cv::ximgproc::THINNING_ZHANGSUEN);
-  else
-    centre = cv::Mat::zeros(body.size(), CV_8UC1);
+  // Zhang-Suen is local, so only the bounding box of the paint is thinned (the cost of
+  // OpenCV's implementation grows with the image it scans), inside a one-pixel frame of
+  // background: OpenCV never deletes the outermost row and column of its input, which would
+  // otherwise leave a route leaving the frame with a bar along the image border.
+  cv::Mat centre = cv::Mat::zeros(body.size(), CV_8UC1);
+  const cv::Rect box = cv::boundingRect(body);
+  if (box.area() > 0) {
+    cv::Mat framed, thin;
+    cv::copyMakeBorder(body(box), framed, 1, 1, 1, 1, cv::BORDER_CONSTANT, cv::Scalar(0));
+    cv::ximgproc::thinning(framed, thin, cv::ximgproc::THINNING_ZHANGSUEN);
+    thin(cv::Rect(1, 1, box.width, box.height)).copyTo(centre(box));
+  }
   if (debug) debug->centerline = centre.clone();
 
   // The M x N grid: work pixel (x, y) is in cell (x * M / w, y * N / h) (integer division, so
