@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include <Eigen/Eigenvalues>
 #include <fmt/format.h>
 
 namespace lander::ctl {
@@ -50,13 +51,14 @@ const char* to_string(Mode m) {
     case Mode::kTouchdown: return "touchdown";
     case Mode::kLanded: return "landed";
     case Mode::kGoAround: return "go_around";
+    case Mode::kFollowPath: return "follow_path";
     case Mode::kAborted: return "aborted";
   }
   return "unknown";
 }
 
 LandingController::LandingController(const ControllerParams& params, const CameraMount& mount)
-    : p_(params), cascade_(params.vehicle, params.cascade), tracker_(params.tracker, mount) {
+    : p_(params), mount_(mount), cascade_(params.vehicle, params.cascade), tracker_(params.tracker, mount) {
   p_.validate();
   mount.validate();
   decisions_.wide_gate_m = p_.landing.wide_gate_m();
@@ -68,6 +70,22 @@ void LandingController::on_vision(const PlatformObservation& obs) {
     return;
   }
   pending_.push_back(obs);
+}
+
+void LandingController::on_path(const PathPoints& pts) {
+  bool finite = std::isfinite(pts.t_s) && std::isfinite(pts.fx) && std::isfinite(pts.fy) &&
+                std::isfinite(pts.cx) && std::isfinite(pts.cy) && pts.fx > 0 && pts.fy > 0;
+  for (const Eigen::Vector2d& p : pts.points_px) finite = finite && p.allFinite();
+  if (!finite) {
+    ++rejected_inputs_;
+    return;
+  }
+  if (have_path_ && pts.t_s < path_.t_s) return;  // out of order: keep the newer
+  path_ = pts;
+  have_path_ = true;
+  const int n = static_cast<int>(pts.points_px.size());
+  path_streak_ = n >= p_.path.enter_min_points ? path_streak_ + 1 : 0;
+  if (n > 0) last_path_t_ = pts.t_s;
 }
 
 void LandingController::on_altitude(const AltitudeEstimate& alt) {
@@ -308,6 +326,27 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
       // moving cart stays below (the fixes are measurements; only the plan failed).
       if (mode_ == Mode::kTouchdown) cascade_.reset();  // motors restart from idle
       break;
+    case Mode::kFollowPath: {
+      const PathGuidanceParams& P = p_.path;
+      // The travel direction: the given one, else the cart's last seen motion, else the
+      // vehicle's own; none: the first target decides (the farthest candidate).
+      path_dir_known_ = true;
+      if (P.direction_given) {
+        path_dir_W_ = Eigen::Vector2d(std::cos(P.direction_rad), std::sin(P.direction_rad));
+      } else if (tracker_.has_fix() && tracker_.velocity().head<2>().norm() > P.min_speed_mps) {
+        path_dir_W_ = tracker_.velocity().head<2>().normalized();
+      } else if (nav.v_W_mps.head<2>().norm() > P.min_speed_mps) {
+        path_dir_W_ = nav.v_W_mps.head<2>().normalized();
+      } else {
+        path_dir_known_ = false;
+      }
+      // Constant height above the ground (the fused height; without one, where it is).
+      path_z_ = altitude_.valid ? nav.p_W_m.z() + (P.height_m - altitude_.h_surface_m) : nav.p_W_m.z();
+      path_trail_.clear();
+      last_target_t_ = t_s;
+      hold_p_ = nav.p_W_m;
+      break;
+    }
     case Mode::kAborted: {
       // Straight up from here to the go-around height above the top, then hold.
       hold_p_ = nav.p_W_m;
@@ -367,6 +406,16 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       if (tracker_.keyframe_streak() >= L.reacquire_frames && in_view(t_s, L.loss_timeout_s)) {
         switch_to(t_s, Mode::kObserve,
                   fmt::format("target acquired: {} consecutive keyframes", tracker_.keyframe_streak()),
+                  nav);
+        return run_mode_machine(t_s, nav);
+      }
+      // A painted route in view and the target not (seed 003): follow the route. Never again
+      // after its end was reached (the vehicle holds there).
+      if (p_.path.enabled && !route_ended_ && path_streak_ >= p_.path.enter_frames &&
+          t_s - last_path_t_ < p_.path.route_lost_s) {
+        switch_to(t_s, Mode::kFollowPath,
+                  fmt::format("route in view: {} frames with >= {} candidate points, target not acquired",
+                              path_streak_, p_.path.enter_min_points),
                   nav);
         return run_mode_machine(t_s, nav);
       }
@@ -701,6 +750,23 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
     case Mode::kAborted:
       return hold(hold_p_);
 
+    case Mode::kFollowPath: {
+      if (tracker_.keyframe_streak() >= L.reacquire_frames && in_view(t_s, L.loss_timeout_s)) {
+        switch_to(t_s, Mode::kObserve,
+                  fmt::format("target acquired while following the route: {} consecutive keyframes",
+                              tracker_.keyframe_streak()),
+                  nav);
+        return run_mode_machine(t_s, nav);
+      }
+      if (route_ended_) return hold(hold_p_);  // the end of the route: hold and report
+      if (t_s - last_path_t_ > p_.path.route_lost_s) {
+        switch_to(t_s, Mode::kSearch,
+                  fmt::format("route lost: no candidate point for {:.2f} s", t_s - last_path_t_), nav);
+        return run_mode_machine(t_s, nav);
+      }
+      return follow_path_step(t_s, nav);
+    }
+
     case Mode::kGoAround: {
       if (std::abs(nav.p_W_m.z() - hold_p_.z()) < kGoAroundReachedBand_m) {
         if (tracker_.keyframe_streak() >= L.reacquire_frames && in_view(t_s, L.loss_timeout_s)) {
@@ -726,6 +792,159 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
     }
   }
   return hold(nav.p_W_m);
+}
+
+// One outer step of follow_path (seed 003 eq. 10-17, see path_guidance.h).
+Setpoint LandingController::follow_path_step(double t_s, const NavState& nav) {
+  const PathGuidanceParams& P = p_.path;
+  ++path_steps_;
+  const Eigen::Vector2d here = nav.p_W_m.head<2>();
+  if (path_trail_.empty() || (here - path_trail_.back()).norm() >= 0.25) path_trail_.push_back(here);
+  // Constant height above the ground: servoed on the fused height above the surface (the
+  // navigation's height drifts with the barometer's bias until GPS and vision settle it).
+  if (altitude_.valid) path_z_ = nav.p_W_m.z() + (P.height_m - altitude_.h_surface_m);
+  GroundView g;
+  g.R_WB = nav.q_WB.toRotationMatrix();
+  const Eigen::Isometry3d X_BC = mount_.X_BC();
+  g.R_BC = X_BC.linear();
+  g.t_BC_m = X_BC.translation();
+  g.h_B_m = altitude_.valid ? altitude_.h_surface_m : P.height_m;
+  g.fx = path_.fx;
+  g.fy = path_.fy;
+  g.cx = path_.cx;
+  g.cy = path_.cy;
+  const bool const_k = P.projection == "constant_k";
+  // U: the paper's image centre with the constant scale; the image of the point below the
+  // vehicle with the exact projection.
+  const Eigen::Vector2d U = const_k ? Eigen::Vector2d(g.cx, g.cy) : vehicle_image_point(g);
+  // v: the velocity's image projection; the kept direction while slow or turning hard.
+  Eigen::Vector2d dir = path_dir_W_;
+  const Eigen::Vector2d v_W = nav.v_W_mps.head<2>();
+  if (v_W.norm() > P.min_speed_mps && (!path_dir_known_ || v_W.normalized().dot(path_dir_W_) > 0.5)) {
+    dir = v_W.normalized();
+  }
+  Eigen::Vector2d v_img = Eigen::Vector2d::Zero();
+  if (const auto a = ground_to_image(g, dir)) v_img = *a - vehicle_image_point(g);
+  auto to_ground = [&](const Eigen::Vector2d& p_px) -> std::optional<Eigen::Vector2d> {
+    if (const_k) return image_to_ground_k(g, p_px, U, P.k_m_per_px);
+    return image_to_ground_ray(g, p_px);
+  };
+  if (P.guidance == "pixel_distribution") return pixel_distribution_step(t_s, nav, g, U, v_img);
+
+  // Candidates on the flown trail (all but its last trail_skip_m) are behind: set aside.
+  std::vector<Eigen::Vector2d> ground(path_.points_px.size(), Eigen::Vector2d::Zero());
+  std::vector<bool> excluded(path_.points_px.size(), false);
+  const int skip = static_cast<int>(std::ceil(P.trail_skip_m / 0.25));
+  const int trail_n = static_cast<int>(path_trail_.size()) - skip;
+  for (std::size_t i = 0; i < path_.points_px.size(); ++i) {
+    const auto off = to_ground(path_.points_px[i]);
+    if (!off) {
+      excluded[i] = true;
+      continue;
+    }
+    ground[i] = here + *off;
+    for (int k = 0; k < trail_n && !excluded[i]; ++k) {
+      excluded[i] = (path_trail_[k] - ground[i]).norm() < P.trail_radius_m;
+    }
+  }
+  std::optional<std::size_t> pick;
+  if (!path_dir_known_) {
+    // No direction yet: the farthest candidate in the annulus decides it.
+    double best_r = -1;
+    for (std::size_t i = 0; i < path_.points_px.size(); ++i) {
+      const double r = (path_.points_px[i] - U).norm();
+      if (!excluded[i] && r > P.r1_px && r < P.r2_px && r > best_r) {
+        best_r = r;
+        pick = i;
+      }
+    }
+  } else if (v_img.norm() > 1e-6) {
+    pick = select_target(path_.points_px, U, v_img, P.r1_px, P.r2_px, P.tie_rad, P.max_turn_rad, &excluded);
+  }
+  diag_.path_target_valid = pick.has_value();
+  if (!pick) {
+    // No candidate ahead: hold where the last target was lost; after end_after_s this is
+    // the route's end.
+    if (t_s - last_target_t_ > P.end_after_s) {
+      route_ended_ = true;
+      route_end_t_ = t_s;
+      hold_p_ = Eigen::Vector3d(here.x(), here.y(), path_z_);
+      log_event(t_s, "route_end",
+                fmt::format("no route candidate ahead for {:.1f} s: the end of the route; holding at "
+                            "({:.2f}, {:.2f})",
+                            t_s - last_target_t_, here.x(), here.y()));
+      return hold(hold_p_);
+    }
+    Setpoint sp = hold(Eigen::Vector3d(hold_p_.x(), hold_p_.y(), path_z_));
+    return sp;
+  }
+  ++path_target_steps_;
+  last_target_t_ = t_s;
+  const Eigen::Vector2d off = ground[*pick] - here;
+  if (off.norm() < 1e-6) return hold(Eigen::Vector3d(here.x(), here.y(), path_z_));
+  path_dir_W_ = off.normalized();
+  path_dir_known_ = true;
+  diag_.path_dir_W = path_dir_W_;
+  diag_.path_target_W_m = ground[*pick];
+  // eq. 17: towards the target point at the route speed, constant height and yaw.
+  hold_p_ = Eigen::Vector3d(here.x(), here.y(), path_z_);
+  Setpoint sp = hold(hold_p_);
+  sp.v_W_mps.head<2>() = P.speed_mps * path_dir_W_;
+  return sp;
+}
+
+// The paper's baseline (its Table 1): the route pixels' distribution (their principal axis
+// and centroid) turns the heading; the vehicle moves along its body x only, and only while
+// the heading is within baseline_align_deg of the route.
+Setpoint LandingController::pixel_distribution_step(double t_s, const NavState& nav, const GroundView& g,
+                                                    const Eigen::Vector2d& U, const Eigen::Vector2d& v_img) {
+  (void)t_s;
+  const PathGuidanceParams& P = p_.path;
+  const Eigen::Vector2d here = nav.p_W_m.head<2>();
+  std::vector<Eigen::Vector2d> pts;
+  for (const Eigen::Vector2d& p : path_.points_px) {
+    if ((p - U).norm() < P.r2_px) pts.push_back(p);
+  }
+  diag_.path_target_valid = pts.size() >= 2;
+  if (pts.size() < 2 || v_img.norm() < 1e-6) {
+    if (t_s - last_target_t_ > P.end_after_s) {
+      route_ended_ = true;
+      route_end_t_ = t_s;
+      hold_p_ = Eigen::Vector3d(here.x(), here.y(), path_z_);
+      log_event(t_s, "route_end", fmt::format("pixel distribution: no route pixels for {:.1f} s", t_s - last_target_t_));
+    }
+    return hold(Eigen::Vector3d(hold_p_.x(), hold_p_.y(), path_z_));
+  }
+  ++path_target_steps_;
+  last_target_t_ = t_s;
+  // Principal axis of the points ahead of the vehicle (those on the side of v), centroid.
+  std::vector<Eigen::Vector2d> ahead;
+  for (const Eigen::Vector2d& p : pts) {
+    if ((p - U).dot(v_img) > 0) ahead.push_back(p);
+  }
+  if (ahead.size() < 2) ahead = pts;
+  Eigen::Vector2d c = Eigen::Vector2d::Zero();
+  for (const Eigen::Vector2d& p : ahead) c += p;
+  c /= static_cast<double>(ahead.size());
+  Eigen::Matrix2d C = Eigen::Matrix2d::Zero();
+  for (const Eigen::Vector2d& p : ahead) C += (p - c) * (p - c).transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(C);
+  Eigen::Vector2d axis = es.eigenvectors().col(1);
+  if (axis.dot(v_img) < 0) axis = -axis;
+  // Aim at the centroid pushed along the axis: the heading to that ground point.
+  const auto a = image_to_ground_ray(g, c + 100.0 * axis);
+  if (!a || a->norm() < 1e-6) return hold(Eigen::Vector3d(hold_p_.x(), hold_p_.y(), path_z_));
+  const double want = std::atan2(a->y(), a->x());
+  const double err = std::remainder(want - yaw_hold_, 2 * M_PI);
+  const double max_step = P.baseline_yaw_rate_degps * M_PI / 180.0 * (1.0 / p_.cascade.outer_rate_hz);
+  yaw_hold_ = std::remainder(yaw_hold_ + std::clamp(err, -max_step, max_step), 2 * M_PI);
+  path_dir_W_ = Eigen::Vector2d(std::cos(yaw_hold_), std::sin(yaw_hold_));
+  path_dir_known_ = true;
+  diag_.path_dir_W = path_dir_W_;
+  hold_p_ = Eigen::Vector3d(here.x(), here.y(), path_z_);
+  Setpoint sp = hold(hold_p_);
+  if (std::abs(err) < P.baseline_align_deg * M_PI / 180.0) sp.v_W_mps.head<2>() = P.speed_mps * path_dir_W_;
+  return sp;
 }
 
 RotorCommand LandingController::step(double t_s, const NavState& nav, const ImuSample& imu) {

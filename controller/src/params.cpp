@@ -183,6 +183,7 @@ void ControllerParams::validate() const {
   validate_nested("cascade", cascade);
   validate_nested("tracker", tracker);
   validate_nested("landing", landing);
+  validate_nested("path", path);
 }
 
 }  // namespace lander::ctl

@@ -17,15 +17,29 @@ const FlightConfig& validated(const FlightConfig& c) {
 FlightStack::FlightStack(const FlightConfig& config)
     : config_(validated(config)),
       detector_(config_.camera, TargetGeometry::load(config_.target_path), config_.estimator.vision),
+      path_extractor_(config_.camera, config_.estimator.path),
       nav_(config_.estimator.navigation),
       fusion_(config_.estimator.altitude),
       screen_(config_.estimator.sample_limits),
       controller_(config_.controller, config_.mount) {}
 
 VisionResult FlightStack::vision_result(const RingDetection& det, double t_mid_s) const {
-  VisionResult vr{to_platform_observation(det, t_mid_s)};
+  VisionResult vr;
+  vr.obs = to_platform_observation(det, t_mid_s);
   if (det.detected && det.keyframe) vr.h_plane_m = height_above_target_m(det.X_CP, config_.mount.X_BC());
   return vr;
+}
+
+bool FlightStack::wants_path() const {
+  if (!config_.estimator.path.enabled || !config_.controller.path.enabled) return false;
+  const ctl::Mode m = controller_.mode();
+  return (m == ctl::Mode::kSearch && !controller_.route_ended()) || m == ctl::Mode::kFollowPath;
+}
+
+PathObservation FlightStack::detect_path(const cv::Mat& bgr, double t_mid_s) const {
+  PathObservation o = path_extractor_.extract(bgr);
+  o.t_s = t_mid_s;
+  return o;
 }
 
 void FlightStack::on_baro(const BaroSample& b) {
@@ -54,6 +68,16 @@ void FlightStack::on_mag(const MagSample& m) {
 }
 
 void FlightStack::on_vision(const VisionResult& vr) {
+  if (vr.path) {
+    ctl::PathPoints pp;
+    pp.t_s = vr.path->t_s;
+    pp.points_px = vr.path->points_px;
+    pp.fx = vr.path->fx;
+    pp.fy = vr.path->fy;
+    pp.cx = vr.path->cx;
+    pp.cy = vr.path->cy;
+    controller_.on_path(pp);
+  }
   if (!screen_.accept(vr.obs)) return;
   if (fusion_started_ && std::isfinite(vr.h_plane_m)) fusion_.update_vision(vr.obs.t_s, vr.h_plane_m);
   controller_.on_vision(vr.obs);

@@ -33,8 +33,9 @@ int run(const Args& args) {
   std::cout << "lander run: " << s.name << ": " << outcome << "\noutputs in " << o.out_dir
             << "/ (summary.json, trace.csv, scenario.resolved.yaml"
             << (o.video ? ", camera.mp4, chase.mp4" : "") << ")\n";
-  // Success: a landing, or a scripted flight flown to its end.
-  return (outcome == "landed" || outcome == "scripted_flight_complete") ? kExitOk : kExitFailure;
+  // Success: the outcome the scenario expects (a landing by default; the route's end for a
+  // path-following run), or a scripted flight flown to its end.
+  return (outcome == s.expect_outcome || outcome == "scripted_flight_complete") ? kExitOk : kExitFailure;
 }
 
 const LanderCommand reg("run",

@@ -119,11 +119,15 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
       if (!o.save_frames_dir.empty()) save_frame_png(o.save_frames_dir, *frame);
       const auto t0 = Clock::now();
       RingDetection det = flight.detect(frame->bgr);
+      const double t_mid = frame->exposure.mid();
+      // The path stage (seed 003) runs only while the flight software can use it.
+      std::optional<PathObservation> path;
+      if (flight.wants_path()) path = flight.detect_path(frame->bgr, t_mid);
       const double proc_ms = ms_since(t0);
       res.estimator_ms += proc_ms;
-      const double t_mid = frame->exposure.mid();
       if (outliers.apply(t_mid, det)) recorder.count_outlier_injected();
       flight::VisionResult vr = flight.vision_result(det, t_mid);
+      vr.path = std::move(path);
       recorder.on_frame(*frame, det, vr, flight);
       if (fault_active(t_mid, F.nan_vision_t_s, F.nan_vision_duration_s)) {
         corrupt_observation(vr.obs);  // test hook: a "detection" with a NaN pose

@@ -69,7 +69,7 @@ void run_kinematic(const Scenario& s, const RunOptions& o, World& world, Rendere
                      "yaw_rad", "x_WP_m", "y_WP_m", "z_WP_m", "yaw_WP_rad", "h_above_P_m",
                      "platform_in_view"});
   auto set_state = [&](double t) {
-    const CartReference c = cart_reference(s.cart, t);
+    const CartReference c = cart_reference(s.cart, t, &world.route());
     world.set_cart_state(c.q, c.qd);
     Eigen::Isometry3d X_WB;
     Eigen::Vector3d v_W, w_B;

@@ -21,6 +21,8 @@ void VehicleSetup::validate() const {
 
 void Scenario::validate() const {
   require(duration_s > 0 && duration_s <= 3600, "duration_s", "must be in (0, 3600] s");
+  require(expect_outcome == "landed" || expect_outcome == "route_end", "expect_outcome",
+          "must be landed or route_end (got '" + expect_outcome + "')");
   validate_nested("world", world);
   validate_nested("camera", camera);
   validate_nested("render", render);
@@ -33,6 +35,13 @@ void Scenario::validate() const {
   validate_nested("faults", faults);
   validate_nested("video", video);
   require(trace_rate_hz > 0 && trace_rate_hz <= 1000, "trace_rate_hz", "must be in (0, 1000]");
+  require(cart.path != "route" || world.route.present(), "cart.path",
+          "'route' needs a route: world.route.waypoints is empty");
+  if (cart.path == "route") {
+    const RouteGeometry route(world.route);
+    require(cart.route_start_m < route.length(), "cart.route_start_m",
+            "must be less than the route's length " + std::to_string(route.length()) + " m");
+  }
   // camera.mp4 is the camera image divided by video.camera_scale_div, rounded down to even
   // sizes for H.264; too small a frame makes ffmpeg fail at run time.
   const int video_w = camera.intrinsics.width_px / video.camera_scale_div / 2 * 2;

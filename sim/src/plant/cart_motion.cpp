@@ -1,12 +1,14 @@
 #include "lander/sim/plant/cart_motion.h"
 
 #include <cmath>
+#include <stdexcept>
 
 namespace lander::sim {
 
 void CartMotionParams::validate() const {
-  require(path == "static" || path == "straight" || path == "arc", "path",
-          "must be static, straight or arc (got '" + path + "')");
+  require(path == "static" || path == "straight" || path == "arc" || path == "route", "path",
+          "must be static, straight, arc or route (got '" + path + "')");
+  require(route_start_m >= 0, "route_start_m", "must be >= 0");
   require(speed_profile == "constant" || speed_profile == "stop_and_go", "speed_profile",
           "must be constant or stop_and_go (got '" + speed_profile + "')");
   require(speed_mps >= 0 && speed_mps <= 5, "speed_mps", "must be in [0, 5]");
@@ -58,9 +60,25 @@ void speed_profile(const CartMotionParams& p, double t, double& s, double& sd, d
 
 }  // namespace
 
-CartReference cart_reference(const CartMotionParams& p, double t_s) {
+CartReference cart_reference(const CartMotionParams& p, double t_s, const RouteGeometry* route) {
   double s, sd, sdd;
   speed_profile(p, t_s, s, sd, sdd);
+  if (p.path == "route") {
+    if (route == nullptr || route->empty()) throw std::logic_error("cart path 'route' without a route");
+    s += p.route_start_m;
+    if (s >= route->length()) {  // the end of the route: the cart stops there
+      s = route->length();
+      sd = sdd = 0.0;
+    }
+    const RoutePoint rp = route->at(s);
+    const double h = rp.heading_rad, k = rp.curvature;
+    const Eigen::Vector2d t_hat(std::cos(h), std::sin(h)), n_hat(-std::sin(h), std::cos(h));
+    CartReference r;
+    r.q << rp.p_m, h;
+    r.qd << sd * t_hat, k * sd;
+    r.qdd << sdd * t_hat + sd * sd * k * n_hat, k * sdd;
+    return r;
+  }
   const double k = p.path == "arc" ? 1.0 / p.turn_radius_m : 0.0;  // curvature (1/m)
   const double h0 = p.heading_rad, h = h0 + k * s;
   CartReference r;

@@ -108,7 +108,7 @@ Plant::Plant(const Scenario& s, World& world)
   cart_mass_kg_ = m->body_mass[world.cart_body()];
   cart_yaw_inertia_ = m->body_inertia[3 * world.cart_body() + 2];
   // Initial state: cart on its path, vehicle hovering at the start point.
-  const CartReference ref0 = cart_reference(s.cart, 0.0);
+  const CartReference ref0 = cart_reference(s.cart, 0.0, &world.route());
   world.set_cart_state(ref0.q, ref0.qd);
   Eigen::Isometry3d X_WB0 = Eigen::Isometry3d::Identity();
   X_WB0.linear() = Eigen::AngleAxisd(s.vehicle.start_yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
@@ -156,7 +156,7 @@ bool Plant::step(int k, const RotorArray& w_cmd, std::string* detail) {
   // Cart drive: PD + feed-forward per joint so the cart follows its path whatever lands on it.
   // Gains in N/m, N s/m (x, y) and N m/rad, N m s/rad (yaw).
   {
-    const CartReference ref = cart_reference(s_.cart, t_s);
+    const CartReference ref = cart_reference(s_.cart, t_s, &world_.route());
     const Eigen::Vector3d q = world_.cart_q(), qd = world_.cart_qd();
     const double kp[3] = {4000.0, 4000.0, 3000.0}, kd[3] = {1200.0, 1200.0, 500.0};
     const double inertia[3] = {cart_mass_kg_, cart_mass_kg_, cart_yaw_inertia_};

@@ -27,6 +27,50 @@ Eigen::Isometry3d pose_from(const mjtNum* pos, const mjtNum* mat) {
   return X;
 }
 
+// Places the route's paint and the distractor patches on the placeholder geoms of the model
+// (models/world.xml: route_box_*, route_disc_*, paint_box_*), moved from the hidden group 4
+// to group 0 like the lane markings (rays of the rangefinder and the ground effect see the
+// paint's 6 mm as they would). Thin boxes lie on the ground; the route's top is 6 mm above it, above the lane
+// markings' 5 mm so the two never fight for depth where they cross; distractors 7 mm.
+void paint_route(mjModel* m, const RouteParams& rp, const RouteGeometry& route, const std::string& file) {
+  auto place = [&](const std::string& prefix, int& next, const Eigen::Vector2d& c, double yaw,
+                   const Eigen::Vector3d& half, const Eigen::Vector3d& rgb) {
+    const std::string name = prefix + std::to_string(next);
+    const int g = mj_name2id(m, mjOBJ_GEOM, name.c_str());
+    if (g < 0) {
+      throw ConfigError(file + ": the route needs more paint pieces than the model has placeholders ('" +
+                        name + "' is missing; models/world.xml has them)");
+    }
+    ++next;
+    m->geom_pos[3 * g] = c.x();
+    m->geom_pos[3 * g + 1] = c.y();
+    m->geom_pos[3 * g + 2] = half.z();
+    m->geom_quat[4 * g] = std::cos(0.5 * yaw);
+    m->geom_quat[4 * g + 1] = 0;
+    m->geom_quat[4 * g + 2] = 0;
+    m->geom_quat[4 * g + 3] = std::sin(0.5 * yaw);
+    for (int i = 0; i < 3; ++i) {
+      m->geom_size[3 * g + i] = half[i];
+      m->geom_rgba[4 * g + i] = static_cast<float>(rgb[i]);
+    }
+    m->geom_rgba[4 * g + 3] = 1.0f;
+    m->geom_rbound[g] = m->geom_type[g] == mjGEOM_CYLINDER ? std::hypot(half.x(), half.z()) : half.norm();
+    m->geom_group[g] = 0;
+  };
+  int boxes = 0, discs = 0, patches = 0;
+  const double w2 = 0.5 * rp.width_m, top = 0.003;
+  for (const RouteGeometry::Rect& r : route.paint_rects()) {
+    place("route_box_", boxes, r.centre_m, r.heading_rad, {0.5 * r.length_m, w2, top}, rp.rgb);
+  }
+  for (const Eigen::Vector2d& c : route.paint_discs()) {
+    place("route_disc_", discs, c, 0.0, {w2, 0.0, top}, rp.rgb);
+    m->geom_size[3 * mj_name2id(m, mjOBJ_GEOM, ("route_disc_" + std::to_string(discs - 1)).c_str()) + 1] = top;
+  }
+  for (const PaintPatch& p : rp.paint) {
+    place("paint_box_", patches, p.centre_m, p.yaw_rad, {0.5 * p.size_m.x(), 0.5 * p.size_m.y(), 0.0035}, p.rgb);
+  }
+}
+
 }  // namespace
 
 World::World(const WorldParams& params, const CameraModel& camera) : camera_(camera) {
@@ -37,6 +81,7 @@ World::World(const WorldParams& params, const CameraModel& camera) : camera_(cam
     throw ConfigError(params.model_path + ": cannot open model file");
   }
   target_ = TargetGeometry::load(params.target_path);
+  route_ = RouteGeometry(params.route);
   char err[1024] = "";
   try {
     m_ = mj_loadXML(params.model_path.c_str(), nullptr, err, sizeof(err));
@@ -80,6 +125,7 @@ World::World(const WorldParams& params, const CameraModel& camera) : camera_(cam
   if (ground_tex >= 0) {
     set_texture("ground_tex", make_ground_texture(m_->tex_width[ground_tex], params.ground_seed));
   }
+  if (!route_.empty() || !params.route.paint.empty()) paint_route(m_, params.route, route_, params.model_path);
   mj_forward(m_, d_);
 }
 

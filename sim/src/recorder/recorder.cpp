@@ -222,6 +222,23 @@ std::optional<Outcome> Recorder::on_step(int k, const VehicleTruth& truth, const
   }
   const ctl::LandingController& c = fs.controller();
   if (std::optional<Outcome> out = judge_.update(tn, truth, c)) return out;
+  // The route's end, reached and held (seed 003): the run is over.
+  constexpr double kRouteEndHold_s = 3.0;  // long enough to show the hold is stable
+  if (c.route_ended() && tn - c.route_end_t() >= kRouteEndHold_s) {
+    return Outcome{"route_end", fmt::format("the end of the route was reached at t = {:.2f} s and held for "
+                                            "{:.0f} s; no target found", c.route_end_t(), kRouteEndHold_s)};
+  }
+  // Cross-track error at 100 Hz while following the route, until it is covered (the vehicle's
+  // ground point within kCovered_m of the route's end by arc length).
+  constexpr double kCovered_m = 0.3;  // about the route's width plus the hold's drift
+  const RouteGeometry& route = world_.route();
+  if (!route.empty() && k % 10 == 0 && path_covered_t_ < 0 && c.mode() == ctl::Mode::kFollowPath) {
+    if (path_t0_ < 0) path_t0_ = tn;
+    double s_on = 0;
+    cross_track_m_.push_back(route.distance(truth.X_WB.translation().head<2>(), &s_on));
+    path_s_max_ = std::max(path_s_max_, s_on);
+    if (s_on >= route.length() - kCovered_m) path_covered_t_ = tn;
+  }
   if (k % trace_every_ != 0) return std::nullopt;
   const NavState ns = fs.nav_state();
   const auto& dg = c.diagnostics();
@@ -314,6 +331,29 @@ void Recorder::finish(const Outcome& outcome, const flight::FlightStack& fs, Jso
   alt["fused_h_surface_max_m"] = fused_h_err_.max_abs_m;
   alt["by_sensor"] = alt_metrics_.json();
   summary["altitude_fusion"] = alt;
+  if (!world_.route().empty()) {
+    // Path following (seed 003, issue 14): null where there is nothing to measure.
+    Json pf = Json::object();
+    std::vector<double> e = cross_track_m_;
+    std::sort(e.begin(), e.end());
+    auto q = [&](double f) { return e.empty() ? kNaN : e[static_cast<std::size_t>(f * (e.size() - 1) + 0.5)]; };
+    double sum = 0;
+    for (double x : e) sum += x;
+    pf["route_length_m"] = world_.route().length();
+    pf["followed_from_s"] = path_t0_ >= 0 ? path_t0_ : kNaN;
+    pf["covered"] = path_covered_t_ >= 0;
+    pf["time_to_cover_s"] = path_covered_t_ >= 0 ? path_covered_t_ - path_t0_ : kNaN;
+    pf["covered_m"] = path_s_max_;
+    pf["cross_track_samples"] = static_cast<int>(e.size());
+    pf["cross_track_mean_m"] = e.empty() ? kNaN : sum / static_cast<double>(e.size());
+    pf["cross_track_median_m"] = q(0.5);
+    pf["cross_track_p95_m"] = q(0.95);
+    pf["cross_track_max_m"] = e.empty() ? kNaN : e.back();
+    pf["guidance_steps"] = c.path_steps();
+    pf["target_share"] = c.path_steps() > 0 ? static_cast<double>(c.path_target_steps()) / c.path_steps() : kNaN;
+    pf["route_end_t_s"] = c.route_ended() ? c.route_end_t() : kNaN;
+    summary["path_following"] = pf;
+  }
 }
 
 }  // namespace lander::sim

@@ -40,6 +40,9 @@ enum class Mode {
   kTouchdown,  ///< motors cut, waiting for contact
   kLanded,     ///< contact confirmed; motors stay off
   kGoAround,   ///< climb back to the observe height after a loss or a large error
+  kFollowPath, ///< seed 003: a painted route in view and the target not: follow the route
+               ///< (path_guidance.h) until the target is acquired (-> observe), the route
+               ///< is lost (-> search) or ends (hold there, route_ended())
   kAborted,    ///< terminal, after max_landing_attempts failed attempts: climbs straight up to
                ///< go_around_height_m above the last known platform top (at least
                ///< search_min_height_m above the surface) and holds that point and the
@@ -135,6 +138,10 @@ struct LandingDiagnostics {
   double final_stage_s{0.0};                ///< recovery: time since first below
                                             ///< final_hold_height_m (s), 0 before
   bool wide_committed{false};               ///< recovery: committed within the wide gate
+  bool path_target_valid{false};            ///< follow_path: a target point this step
+  Eigen::Vector2d path_dir_W{Eigen::Vector2d::UnitX()};  ///< follow_path: travel direction
+  Eigen::Vector2d path_target_W_m{Eigen::Vector2d::Zero()};  ///< follow_path: target on the
+                                            ///< ground (W, m)
   Eigen::Vector3d search_centre_W_m{Eigen::Vector3d::Zero()};  ///< search: the centre of
                                             ///< its pattern (after a loss the prediction, else
                                             ///< the hold point) (m)
@@ -149,6 +156,10 @@ class LandingController {
   // It is applied at the next step() with the navigation state interpolated at obs.t_s. A
   // result with a non-finite or impossible pose is dropped and counted (rejected_inputs).
   void on_vision(const PlatformObservation& obs);
+
+  // A frame's route candidates from the estimator's path stage (seed 003), after its latency.
+  // Non-finite points are dropped (the frame is counted as rejected).
+  void on_path(const PathPoints& pts);
 
   // The fused altitude (used for the search height when no platform is known). A non-finite
   // estimate is dropped and counted.
@@ -174,6 +185,13 @@ class LandingController {
   const CascadeDiagnostics& cascade_diagnostics() const { return cascade_.diagnostics(); }
   const PlatformTracker& tracker() const { return tracker_; }
   const ControllerParams& params() const { return p_; }
+  /// follow_path: the route's end was reached (no candidate ahead for end_after_s); the
+  /// vehicle holds there. NaN time before.
+  bool route_ended() const { return route_ended_; }
+  double route_end_t() const { return route_end_t_; }
+  /// follow_path statistics: outer steps in follow_path and those with a target point.
+  long path_steps() const { return path_steps_; }
+  long path_target_steps() const { return path_target_steps_; }
 
  private:
   void switch_to(double t_s, Mode to, const std::string& reason, const NavState& nav);
@@ -205,7 +223,25 @@ class LandingController {
   void log_event(double t_s, const std::string& what, const std::string& reason);
   void decide(double t_s, const std::string& decision, const std::string& reason);
 
+  // follow_path (seed 003): one outer step of the guidance law.
+  Setpoint follow_path_step(double t_s, const NavState& nav);
+  Setpoint pixel_distribution_step(double t_s, const NavState& nav, const GroundView& g,
+                                   const Eigen::Vector2d& U, const Eigen::Vector2d& v_img);
+
   ControllerParams p_;
+  CameraMount mount_;
+  PathPoints path_;                  // latest route candidates
+  bool have_path_{false};
+  int path_streak_{0};               // consecutive frames with >= enter_min_points candidates
+  double last_path_t_{-1e9};         // last frame with a candidate (s)
+  double last_target_t_{0.0};        // follow_path: last step with a target point (s)
+  bool path_dir_known_{false};
+  Eigen::Vector2d path_dir_W_{Eigen::Vector2d::UnitX()};
+  double path_z_{0.0};               // follow_path: constant height in W (m)
+  std::vector<Eigen::Vector2d> path_trail_;  // flown positions, 0.25 m apart
+  bool route_ended_{false};
+  double route_end_t_{std::numeric_limits<double>::quiet_NaN()};
+  long path_steps_{0}, path_target_steps_{0};
   CascadeController cascade_;
   PlatformTracker tracker_;
   std::vector<PlatformObservation> pending_;

@@ -8,6 +8,7 @@
 
 #include <Eigen/Core>
 
+#include "lander/controller/path_guidance.h"
 #include "lander/estimator/params_io.h"
 
 namespace lander::ctl {
@@ -412,6 +413,7 @@ struct ControllerParams {
   CascadeParams cascade;
   TrackerParams tracker;
   LandingParams landing;
+  PathGuidanceParams path;  ///< follow_path mode (seed 003), path_guidance.h
   void validate() const;
 };
 
@@ -421,6 +423,7 @@ void visit_fields(V& v, ControllerParams& p) {
   v.nested("cascade", p.cascade);
   v.nested("tracker", p.tracker);
   v.nested("landing", p.landing);
+  v.nested("path", p.path);
 }
 
 }  // namespace lander::ctl

@@ -11,6 +11,7 @@
 #include "lander/controller/params.h"
 #include "lander/estimator/altitude_fusion.h"
 #include "lander/estimator/navigation.h"
+#include "lander/estimator/path_extractor.h"
 #include "lander/estimator/params_io.h"
 #include "lander/estimator/sample_screen.h"
 #include "lander/estimator/types.h"
@@ -24,7 +25,9 @@ struct EstimatorParams {
   AltitudeFusionParams altitude;   ///< holds the platform-height prior (platform_height_m)
   NavigationParams navigation;     ///< holds gravity and the magnetic reference field
   SampleLimits sample_limits;      ///< plausibility limits of sensor samples and vision results
+  PathExtractorParams path;        ///< the route's centre points (seed 003 eq. 6-9)
   void validate() const {
+    validate_nested("path", path);
     validate_nested("vision", vision);
     validate_nested("altitude", altitude);
     validate_nested("navigation", navigation);
@@ -38,6 +41,7 @@ void visit_fields(V& v, EstimatorParams& p) {
   v.nested("altitude", p.altitude);
   v.nested("navigation", p.navigation);
   v.nested("sample_limits", p.sample_limits);
+  v.nested("path", p.path);
 }
 
 struct FlightConfig {

@@ -16,6 +16,7 @@
 #include "lander/controller/landing_controller.h"
 #include "lander/estimator/altitude_fusion.h"
 #include "lander/estimator/navigation.h"
+#include "lander/estimator/path_extractor.h"
 #include "lander/estimator/sample_screen.h"
 #include "lander/estimator/vision_detector.h"
 #include "lander/flight/flight_config.h"
@@ -27,6 +28,7 @@ namespace lander::flight {
 struct VisionResult {
   PlatformObservation obs;
   double h_plane_m{std::numeric_limits<double>::quiet_NaN()};
+  std::optional<PathObservation> path;  ///< the route's candidates, when the path stage ran
 };
 
 class FlightStack {
@@ -39,6 +41,10 @@ class FlightStack {
   // detector undistorts with the configuration's calibration). Stateful (tracking window,
   // keyframes); frames in order. Never throws for bad image content.
   RingDetection detect(const cv::Mat& bgr) { return detector_.detect(bgr); }
+  // The path stage (seed 003 eq. 6-9) on the same frame. It runs only while the controller
+  // can use it (wants_path(): search and follow_path, both stages enabled).
+  bool wants_path() const;
+  PathObservation detect_path(const cv::Mat& bgr, double t_mid_s) const;
   // The result to deliver after the processing latency.
   VisionResult vision_result(const RingDetection& det, double t_mid_s) const;
 
@@ -66,6 +72,7 @@ class FlightStack {
  private:
   FlightConfig config_;
   RingTargetDetector detector_;
+  PathExtractor path_extractor_;
   Navigation nav_;
   AltitudeFusion fusion_;
   SampleScreen screen_;

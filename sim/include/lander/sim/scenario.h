@@ -233,6 +233,8 @@ struct Scenario {
   std::string description;
   std::uint64_t seed{1};        ///< derives every random stream of the run
   double duration_s{60.0};      ///< maximum simulated time (s)
+  std::string expect_outcome{"landed"};  ///< the outcome `lander run` exits 0 for: landed |
+                                         ///< route_end (a path-following run to its end)
   WorldParams world;
   CameraParams camera;
   RenderParams render;
@@ -262,6 +264,7 @@ void visit_fields(V& v, Scenario& p) {
   v("description", p.description);
   v("seed", p.seed);
   v("duration_s", p.duration_s);
+  v("expect_outcome", p.expect_outcome);
   v.nested("world", p.world);
   v.nested("camera", p.camera);
   v.nested("render", p.render);

@@ -8,11 +8,14 @@
 #include <Eigen/Core>
 
 #include "lander/estimator/params_io.h"
+#include "lander/sim/plant/route.h"
 
 namespace lander::sim {
 
 struct CartMotionParams {
-  std::string path{"straight"};           ///< static | straight | arc
+  std::string path{"straight"};           ///< static | straight | arc | route (the centre
+                                          ///< line of world.route, from route_start_m on;
+                                          ///< start_m and heading_deg are then unused)
   std::string speed_profile{"constant"};  ///< constant | stop_and_go
   Eigen::Vector2d start_m{0.0, 0.0};      ///< platform centre at t = 0, in W (m)
   double heading_rad{0.0};                ///< initial heading from W x (rad); YAML heading_deg
@@ -22,6 +25,8 @@ struct CartMotionParams {
   double go_s{4.0};                       ///< stop_and_go cruise time per cycle (s)
   double stop_s{2.0};                     ///< stop_and_go standstill time per cycle (s)
   double start_delay_s{0.0};              ///< time before the cart starts (s)
+  double route_start_m{0.0};              ///< path route: arc length of the start (m); the
+                                          ///< cart stops at the route's end
   double platform_height_m{0.80};         ///< true height of the platform's top above the
                                           ///< ground (m); models/cart.xml has 0.80 m
   void validate() const;
@@ -39,6 +44,7 @@ void visit_fields(V& v, CartMotionParams& p) {
   v("go_s", p.go_s);
   v("stop_s", p.stop_s);
   v("start_delay_s", p.start_delay_s);
+  v("route_start_m", p.route_start_m);
   v("platform_height_m", p.platform_height_m);
 }
 
@@ -49,6 +55,8 @@ struct CartReference {
   Eigen::Vector3d qdd{Eigen::Vector3d::Zero()};
 };
 
-CartReference cart_reference(const CartMotionParams& p, double t_s);
+// `route` is the painted route's centre line, used by path "route" (required then).
+CartReference cart_reference(const CartMotionParams& p, double t_s,
+                             const RouteGeometry* route = nullptr);
 
 }  // namespace lander::sim

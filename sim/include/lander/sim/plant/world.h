@@ -14,6 +14,7 @@
 #include "lander/estimator/params_io.h"
 #include "lander/estimator/target.h"
 #include "lander/estimator/types.h"
+#include "lander/sim/plant/route.h"
 #include "lander/sim/sensors/camera.h"
 
 namespace lander::sim {
@@ -49,8 +50,10 @@ struct WorldParams {
   double physics_dt_s{0.001};      ///< physics step (s); 1 kHz default
   std::uint64_t ground_seed{7};    ///< seed of the procedural ground texture
   LightParams light;
+  RouteParams route;               ///< a painted route on the ground (none by default)
   void validate() const {
     validate_nested("light", light);
+    validate_nested("route", route);
     require(!model_path.empty(), "model", "must name an MJCF file");
     require(!target_path.empty(), "target", "must name a target YAML");
     require(physics_dt_s > 0 && physics_dt_s <= 0.005, "dt_ms", "must be in (0, 5] ms");
@@ -64,6 +67,7 @@ void visit_fields(V& v, WorldParams& p) {
   v("dt_ms", p.physics_dt_s, 1e-3);
   v("ground_seed", p.ground_seed);
   v.nested("light", p.light);
+  v.nested("route", p.route);
 }
 
 // Converts between MuJoCo's camera frame (looks along -z, y up) and the OpenCV frame C
@@ -85,6 +89,7 @@ class World {
   mjData* data() { return d_; }
   const mjData* data() const { return d_; }
   const TargetGeometry& target() const { return target_; }
+  const RouteGeometry& route() const { return route_; }  ///< the painted route (truth)
   const CameraModel& camera() const { return camera_; }
   double time() const { return d_->time; }
 
@@ -133,6 +138,7 @@ class World {
   mjModel* m_ = nullptr;
   mjData* d_ = nullptr;
   TargetGeometry target_;
+  RouteGeometry route_;
   CameraModel camera_;
   int vehicle_body_ = -1, camera_id_ = -1, platform_site_ = -1, cart_body_ = -1;
   int rotor_sites_[6] = {-1, -1, -1, -1, -1, -1};

@@ -93,6 +93,10 @@ class Recorder {
   std::map<std::string, int> not_detected_reasons_;
   ErrorStats fused_z_err_, fused_h_err_;
   AltitudeMetrics alt_metrics_;  // per-sensor height errors against truth (seed 004 figures)
+  // Path following (seed 003): the vehicle's cross-track error to the route's centre line
+  // while it follows the route, until it has covered it.
+  std::vector<double> cross_track_m_;
+  double path_t0_{-1.0}, path_covered_t_{-1.0}, path_s_max_{0.0};
 };
 
 }  // namespace lander::sim
