@@ -799,7 +799,13 @@ Setpoint LandingController::follow_path_step(double t_s, const NavState& nav) {
   const PathGuidanceParams& P = p_.path;
   ++path_steps_;
   const Eigen::Vector2d here = nav.p_W_m.head<2>();
-  if (path_trail_.empty() || (here - path_trail_.back()).norm() >= 0.25) path_trail_.push_back(here);
+  // The flown trail, a point every kTrailSpacing_m (the last kTrailMaxPoints: 100 m).
+  constexpr double kTrailSpacing_m = 0.1;
+  constexpr std::size_t kTrailMaxPoints = 1000;
+  if (path_trail_.empty() || (here - path_trail_.back()).norm() >= kTrailSpacing_m) {
+    path_trail_.push_back(here);
+    if (path_trail_.size() > kTrailMaxPoints) path_trail_.erase(path_trail_.begin());
+  }
   // Constant height above the ground: servoed on the fused height above the surface (the
   // navigation's height drifts with the barometer's bias until GPS and vision settle it).
   if (altitude_.valid) path_z_ = nav.p_W_m.z() + (P.height_m - altitude_.h_surface_m);
@@ -834,7 +840,7 @@ Setpoint LandingController::follow_path_step(double t_s, const NavState& nav) {
   // Candidates on the flown trail (all but its last trail_skip_m) are behind: set aside.
   std::vector<Eigen::Vector2d> ground(path_.points_px.size(), Eigen::Vector2d::Zero());
   std::vector<bool> excluded(path_.points_px.size(), false);
-  const int skip = static_cast<int>(std::ceil(P.trail_skip_m / 0.25));
+  const int skip = static_cast<int>(std::ceil(P.trail_skip_m / kTrailSpacing_m));
   const int trail_n = static_cast<int>(path_trail_.size()) - skip;
   for (std::size_t i = 0; i < path_.points_px.size(); ++i) {
     const auto off = to_ground(path_.points_px[i]);

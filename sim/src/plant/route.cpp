@@ -12,6 +12,11 @@ Eigen::Vector2d unit_at(double phi) { return {std::cos(phi), std::sin(phi)}; }
 }  // namespace
 
 void RouteParams::validate() const {
+  require(width_m >= 0.02 && width_m <= 2.0, "width_m", "must be in [0.02, 2] m");
+  require(rgb.minCoeff() >= 0 && rgb.maxCoeff() <= 1, "rgb", "must be in [0, 1]");
+  require(corner_radius_m >= 0 && corner_radius_m <= 50, "corner_radius_m", "must be in [0, 50] m");
+  for (std::size_t i = 0; i < gaps.size(); ++i) validate_item("gaps", i, gaps[i]);
+  for (std::size_t i = 0; i < paint.size(); ++i) validate_item("paint", i, paint[i]);
   if (waypoints.empty()) return;
   require(waypoints.size() >= 2, "waypoints", "a route needs at least 2 waypoints");
   for (std::size_t i = 0; i < waypoints.size(); ++i) {
@@ -25,11 +30,14 @@ void RouteParams::validate() const {
     require(waypoints[i].corner_radius_m <= 50, "waypoints[" + std::to_string(i) + "].corner_radius_m",
             "must be <= 50 m");
   }
-  require(corner_radius_m >= 0 && corner_radius_m <= 50, "corner_radius_m", "must be in [0, 50] m");
-  require(width_m >= 0.02 && width_m <= 2.0, "width_m", "must be in [0.02, 2] m");
-  require(rgb.minCoeff() >= 0 && rgb.maxCoeff() <= 1, "rgb", "must be in [0, 1]");
-  for (std::size_t i = 0; i < gaps.size(); ++i) validate_item("gaps", i, gaps[i]);
-  for (std::size_t i = 0; i < paint.size(); ++i) validate_item("paint", i, paint[i]);
+  require(paint.size() <= kPaintPlaceholders, "paint",
+          "at most " + std::to_string(kPaintPlaceholders) + " patches (the world model's placeholders)");
+  const RouteGeometry g(*this);
+  require(g.paint_rects().size() <= kRouteBoxPlaceholders, "waypoints",
+          "the route needs " + std::to_string(g.paint_rects().size()) + " paint pieces, the world model has " +
+              std::to_string(kRouteBoxPlaceholders) + " (fewer corners, arcs or gaps)");
+  require(g.paint_discs().size() <= kRouteDiscPlaceholders, "waypoints",
+          "at most " + std::to_string(kRouteDiscPlaceholders) + " sharp corners");
 }
 
 RouteGeometry::RouteGeometry(const RouteParams& p) : gaps_(p.gaps) {

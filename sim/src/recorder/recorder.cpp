@@ -349,6 +349,16 @@ void Recorder::finish(const Outcome& outcome, const flight::FlightStack& fs, Jso
     pf["cross_track_median_m"] = q(0.5);
     pf["cross_track_p95_m"] = q(0.95);
     pf["cross_track_max_m"] = e.empty() ? kNaN : e.back();
+    // The largest error once the vehicle first came within kCaptured_m of the centre line
+    // (the max above includes the approach from the start point).
+    constexpr double kCaptured_m = 0.1;  // half the paper's route width
+    double after = kNaN;
+    bool captured = false;
+    for (double x : cross_track_m_) {
+      captured = captured || x < kCaptured_m;
+      if (captured) after = std::isnan(after) ? x : std::max(after, x);
+    }
+    pf["cross_track_max_after_capture_m"] = after;
     pf["guidance_steps"] = c.path_steps();
     pf["target_share"] = c.path_steps() > 0 ? static_cast<double>(c.path_target_steps()) / c.path_steps() : kNaN;
     pf["route_end_t_s"] = c.route_ended() ? c.route_end_t() : kNaN;

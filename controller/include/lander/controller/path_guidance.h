@@ -52,7 +52,9 @@ struct PathGuidanceParams {
   double end_after_s{2.0};           ///< no candidate ahead this long: the route's end (s)
   double max_turn_rad{165.0 * M_PI / 180};  ///< a candidate beyond this from v is behind
                                      ///< (rad); YAML max_turn_deg
-  double trail_radius_m{0.3};        ///< candidates this close to the flown trail are behind (m)
+  double trail_radius_m{0.5};        ///< candidates this close to the flown trail are behind
+                                     ///< (m): the cross-track error's p95 (0.2 m) plus the
+                                     ///< paint's width and margin
   double trail_skip_m{0.25};         ///< the trail's last metres are not used (m): less
                                      ///< than r1 on the ground, so that at a dead end the
                                      ///< candidates behind all lie on the used trail

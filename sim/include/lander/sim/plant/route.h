@@ -61,6 +61,11 @@ void visit_fields(V& v, PaintPatch& p) {
   v("rgb", p.rgb);
 }
 
+// Placeholder geoms models/world.xml holds for the paint (world.cpp places them).
+constexpr std::size_t kRouteBoxPlaceholders = 240;   // route_box_*: straight pieces, arc chords
+constexpr std::size_t kRouteDiscPlaceholders = 32;   // route_disc_*: sharp corners
+constexpr std::size_t kPaintPlaceholders = 24;       // paint_box_*: distractor patches
+
 struct RouteParams {
   std::vector<RouteWaypoint> waypoints;  ///< empty: no route (at least 2 otherwise)
   double corner_radius_m{0.0};           ///< default corner radius (m), 0 = sharp corners
@@ -108,7 +113,8 @@ class RouteGeometry {
     double length_m;
   };
   std::vector<Rect> paint_rects(double max_chord_deg = 6.0) const;
-  // Sharp corners (radius 0) and the route's two ends: discs of the paint width fill them.
+  // Sharp corners (radius 0) whose vertex is painted: discs of the paint width fill them (the
+  // route's ends stay square).
   std::vector<Eigen::Vector2d> paint_discs() const;
 
  private:
