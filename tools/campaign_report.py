@@ -67,10 +67,10 @@ RING_OUTER_RADIUS_M = 0.38
 SIMULATOR_FAILURES = ("crashed", "error", "hung", "diverged")
 # Rank of "how bad" an outcome is, used to order the failed runs (lower = shown first).
 OUTCOME_RANK = {"crashed": 0, "error": 1, "hung": 2, "diverged": 3, "tipped_over": 4,
-                "touched_ground": 5, "aborted": 6, "timeout": 7}
+                "touched_ground": 5, "aborted": 6, "timeout": 7, "route_end": 8}
 MODE_COLOURS = {"search": "#1f77b4", "observe": "#17becf", "approach": "#2ca02c",
                 "recovery": "#ff7f0e", "touchdown": "#9467bd", "landed": "#000000",
-                "go_around": "#d62728", "aborted": "#7f7f7f"}
+                "go_around": "#d62728", "aborted": "#7f7f7f", "follow_path": "#bcbd22"}
 OTHER_MODE_COLOUR = "#8c564b"
 WILSON_Z = 1.959963984540054
 

@@ -343,6 +343,8 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
       // Constant height above the ground (the fused height; without one, where it is).
       path_z_ = altitude_.valid ? nav.p_W_m.z() + (P.height_m - altitude_.h_surface_m) : nav.p_W_m.z();
       path_trail_.clear();
+      path_dr_ = nav.p_W_m.head<2>();
+      path_dr_t_ = t_s;
       last_target_t_ = t_s;
       hold_p_ = nav.p_W_m;
       break;
@@ -799,11 +801,17 @@ Setpoint LandingController::follow_path_step(double t_s, const NavState& nav) {
   const PathGuidanceParams& P = p_.path;
   ++path_steps_;
   const Eigen::Vector2d here = nav.p_W_m.head<2>();
-  // The flown trail, a point every kTrailSpacing_m (the last kTrailMaxPoints: 100 m).
+  // The flown trail, a point every kTrailSpacing_m (the last kTrailMaxPoints: 100 m), in a
+  // dead-reckoned frame (the integral of the navigation velocity): the navigation position
+  // jumps with GPS corrections (0.4 m within 2 s in wind), which made points just flown over
+  // look new; the integral drifts only slowly.
   constexpr double kTrailSpacing_m = 0.1;
   constexpr std::size_t kTrailMaxPoints = 1000;
-  if (path_trail_.empty() || (here - path_trail_.back()).norm() >= kTrailSpacing_m) {
-    path_trail_.push_back(here);
+  const double dt_dr = std::clamp(t_s - path_dr_t_, 0.0, 0.2);
+  path_dr_t_ = t_s;
+  path_dr_ += nav.v_W_mps.head<2>() * dt_dr;
+  if (path_trail_.empty() || (path_dr_ - path_trail_.back()).norm() >= kTrailSpacing_m) {
+    path_trail_.push_back(path_dr_);
     if (path_trail_.size() > kTrailMaxPoints) path_trail_.erase(path_trail_.begin());
   }
   // Constant height above the ground: servoed on the fused height above the surface (the
@@ -849,8 +857,9 @@ Setpoint LandingController::follow_path_step(double t_s, const NavState& nav) {
       continue;
     }
     ground[i] = here + *off;
+    const Eigen::Vector2d g_dr = path_dr_ + *off;  // the same point in the trail's frame
     for (int k = 0; k < trail_n && !excluded[i]; ++k) {
-      excluded[i] = (path_trail_[k] - ground[i]).norm() < P.trail_radius_m;
+      excluded[i] = (path_trail_[k] - g_dr).norm() < P.trail_radius_m;
     }
   }
   std::optional<std::size_t> pick;

@@ -38,7 +38,8 @@ nlohmann::json run(const std::string& name, const std::string& yaml, int* code, 
 }
 
 // The first three corners of scenarios/path_follow.yaml (straight, right angle, acute 45 deg,
-// obtuse 135 deg) with the same distractors, to the end of the route.
+// obtuse 135 deg) with a yellow distractor and a worn gap of 0.6 m on the first leg, to the
+// end of the route.
 TEST(PathIntegration, FollowsTheRouteThroughItsCornersToItsEndWithinTheCrossTrackTolerance) {
   int code = -1;
   std::string text;
@@ -51,6 +52,7 @@ TEST(PathIntegration, FollowsTheRouteThroughItsCornersToItsEndWithinTheCrossTrac
                                "  route:\n"
                                "    waypoints: [{p_m: [0, 0]}, {p_m: [8, 0]}, {p_m: [8, 8]},\n"
                                "                {p_m: [3.757, 3.757]}, {p_m: [-2, 3.757]}]\n"
+                               "    gaps: [{from_m: 3.0, to_m: 3.6}]\n"
                                "    paint: [{centre_m: [4, -1], size_m: [5, 0.15], rgb: [0.9, 0.8, 0.1]}]\n"
                                "cart: {path: static, start_m: [40, 30]}\n"
                                "vehicle: {control: closed_loop, start_m: [0.3, 0.4, 4.0]}\n"

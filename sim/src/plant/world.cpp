@@ -1,6 +1,7 @@
 #include "lander/sim/plant/world.h"
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 
 #include <opencv2/imgproc.hpp>
@@ -28,7 +29,7 @@ Eigen::Isometry3d pose_from(const mjtNum* pos, const mjtNum* mat) {
 }
 
 // Places the route's paint and the distractor patches on the placeholder geoms of the model
-// (models/world.xml: route_box_*, route_disc_*, paint_box_*), moved from the hidden group 4
+// (models/world_route.xml: route_box_*, route_disc_*, paint_box_*), moved from the hidden group 4
 // to group 0 like the lane markings (rays of the rangefinder and the ground effect see the
 // paint's 6 mm as they would). Thin boxes lie on the ground; the route's top is 6 mm above it, above the lane
 // markings' 5 mm so the two never fight for depth where they cross; distractors 7 mm.
@@ -39,7 +40,7 @@ void paint_route(mjModel* m, const RouteParams& rp, const RouteGeometry& route, 
     const int g = mj_name2id(m, mjOBJ_GEOM, name.c_str());
     if (g < 0) {
       throw ConfigError(file + ": the route needs more paint pieces than the model has placeholders ('" +
-                        name + "' is missing; models/world.xml has them)");
+                        name + "' is missing; models/world_route.xml has them)");
     }
     ++next;
     m->geom_pos[3 * g] = c.x();
@@ -77,21 +78,31 @@ World::World(const WorldParams& params, const CameraModel& camera) : camera_(cam
   params.validate();
   camera.validate();
   install_mujoco_handlers();
-  if (!std::ifstream(params.model_path)) {
-    throw ConfigError(params.model_path + ": cannot open model file");
+  // A painted route needs the paint's placeholder geoms: the default world is then loaded
+  // as models/world_route.xml (world.xml plus the placeholders, which would cost every other
+  // run ~0.1 ms a physics step). A custom model must hold them itself.
+  const bool painted = params.route.present() || !params.route.paint.empty();
+  const std::string default_world = std::string(LANDER_MODELS_DIR) + "/world.xml";
+  std::error_code ec;
+  const bool is_default = params.model_path == default_world ||
+                          std::filesystem::equivalent(params.model_path, default_world, ec);
+  const std::string model_path =
+      painted && is_default ? std::string(LANDER_MODELS_DIR) + "/world_route.xml" : params.model_path;
+  if (!std::ifstream(model_path)) {
+    throw ConfigError(model_path + ": cannot open model file");
   }
   target_ = TargetGeometry::load(params.target_path);
   route_ = RouteGeometry(params.route);
   char err[1024] = "";
   try {
-    m_ = mj_loadXML(params.model_path.c_str(), nullptr, err, sizeof(err));
+    m_ = mj_loadXML(model_path.c_str(), nullptr, err, sizeof(err));
   } catch (const MujocoError& e) {
-    throw ConfigError(params.model_path + ": " + e.what());
+    throw ConfigError(model_path + ": " + e.what());
   }
-  if (!m_) throw ConfigError(params.model_path + ": MuJoCo cannot load the model: " + err);
+  if (!m_) throw ConfigError(model_path + ": MuJoCo cannot load the model: " + err);
   d_ = mj_makeData(m_);
   m_->opt.timestep = params.physics_dt_s;
-  const std::string& f = params.model_path;
+  const std::string& f = model_path;
   vehicle_body_ = require_id(m_, mjOBJ_BODY, "hexarotor", f);
   cart_body_ = require_id(m_, mjOBJ_BODY, "cart", f);
   camera_id_ = require_id(m_, mjOBJ_CAMERA, "downcam", f);
@@ -114,7 +125,7 @@ World::World(const WorldParams& params, const CameraModel& camera) : camera_(cam
   m_->cam_fovy[camera_id_] = 2.0 * std::atan(0.5 * render.height / camera_.fy_px) * 180.0 / M_PI;
   reserve_offscreen(render.width, render.height);
   if (m_->vis.global.offwidth > kMaxRenderSidePx || m_->vis.global.offheight > kMaxRenderSidePx) {
-    throw ConfigError(params.model_path + ": <visual><global offwidth/offheight> " +
+    throw ConfigError(model_path + ": <visual><global offwidth/offheight> " +
                       std::to_string(m_->vis.global.offwidth) + "x" +
                       std::to_string(m_->vis.global.offheight) + " exceeds the offscreen limit " +
                       std::to_string(kMaxRenderSidePx) + " px");
@@ -125,7 +136,7 @@ World::World(const WorldParams& params, const CameraModel& camera) : camera_(cam
   if (ground_tex >= 0) {
     set_texture("ground_tex", make_ground_texture(m_->tex_width[ground_tex], params.ground_seed));
   }
-  if (!route_.empty() || !params.route.paint.empty()) paint_route(m_, params.route, route_, params.model_path);
+  if (painted) paint_route(m_, params.route, route_, model_path);
   mj_forward(m_, d_);
 }
 

@@ -165,8 +165,18 @@ void Recorder::on_frame(const CameraFrame& frame, const RingDetection& det,
   cv::resize(frame.bgr, small, cv::Size(video_w_, video_h_), 0, 0, cv::INTER_AREA);
   const std::string mode = ctl::to_string(fs.controller().mode());
   if (s_.video.overlays) {
-    draw_detection(small, det, static_cast<double>(video_w_) / cam.width_px);
-    put_text(small, fmt::format("t {:.2f} s   mode {}", t_mid, mode), 0);
+    const double scale = static_cast<double>(video_w_) / cam.width_px;
+    draw_detection(small, det, scale);
+    // The path stage's candidate points (seed 003; undistorted pixels, drawn on the frame as
+    // delivered: exact for the default camera, which has no distortion).
+    if (vr.path) {
+      for (const Eigen::Vector2d& p : vr.path->points_px) {
+        cv::circle(small, cv::Point2d(p.x() * scale, p.y() * scale), 4, cv::Scalar(255, 255, 0), 2, cv::LINE_AA);
+      }
+    }
+    put_text(small, fmt::format("t {:.2f} s   mode {}{}", t_mid, mode,
+                                vr.path ? fmt::format("   route points {}", vr.path->points_px.size()) : std::string()),
+             0);
     if (fs.altitude_started()) {
       const AltitudeEstimate a = fs.altitude();
       put_text(small, fmt::format("fused height above surface {:.2f} m   z {:.2f} m", a.h_surface_m, a.z_W_m), 1);

@@ -238,7 +238,9 @@ class LandingController {
   bool path_dir_known_{false};
   Eigen::Vector2d path_dir_W_{Eigen::Vector2d::UnitX()};
   double path_z_{0.0};               // follow_path: constant height in W (m)
-  std::vector<Eigen::Vector2d> path_trail_;  // flown positions, 0.25 m apart
+  std::vector<Eigen::Vector2d> path_trail_;  // flown positions (dead-reckoned), 0.1 m apart
+  Eigen::Vector2d path_dr_{Eigen::Vector2d::Zero()};  // dead-reckoned position (m)
+  double path_dr_t_{0.0};
   bool route_ended_{false};
   double route_end_t_{std::numeric_limits<double>::quiet_NaN()};
   long path_steps_{0}, path_target_steps_{0};

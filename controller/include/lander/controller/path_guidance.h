@@ -50,8 +50,10 @@ struct PathGuidanceParams {
   int enter_min_points{3};           ///< candidates a frame needs to count
   double route_lost_s{2.0};          ///< no route this long: back to search (s)
   double end_after_s{2.0};           ///< no candidate ahead this long: the route's end (s)
-  double max_turn_rad{165.0 * M_PI / 180};  ///< a candidate beyond this from v is behind
-                                     ///< (rad); YAML max_turn_deg
+  double max_turn_rad{150.0 * M_PI / 180};  ///< a candidate beyond this from v is behind
+                                     ///< (rad); YAML max_turn_deg: 15 deg more than the
+                                     ///< sharpest corner the law turns (135 deg, an acute
+                                     ///< corner of 45 deg)
   double trail_radius_m{0.5};        ///< candidates this close to the flown trail are behind
                                      ///< (m): the cross-track error's p95 (0.2 m) plus the
                                      ///< paint's width and margin

@@ -61,10 +61,10 @@ void visit_fields(V& v, PaintPatch& p) {
   v("rgb", p.rgb);
 }
 
-// Placeholder geoms models/world.xml holds for the paint (world.cpp places them).
-constexpr std::size_t kRouteBoxPlaceholders = 240;   // route_box_*: straight pieces, arc chords
-constexpr std::size_t kRouteDiscPlaceholders = 32;   // route_disc_*: sharp corners
-constexpr std::size_t kPaintPlaceholders = 24;       // paint_box_*: distractor patches
+// Placeholder geoms models/world_route.xml holds for the paint (world.cpp places them).
+constexpr std::size_t kRouteBoxPlaceholders = 128;   // route_box_*: straight pieces, arc chords
+constexpr std::size_t kRouteDiscPlaceholders = 16;   // route_disc_*: sharp corners
+constexpr std::size_t kPaintPlaceholders = 16;       // paint_box_*: distractor patches
 
 struct RouteParams {
   std::vector<RouteWaypoint> waypoints;  ///< empty: no route (at least 2 otherwise)
