@@ -843,7 +843,6 @@ Setpoint LandingController::follow_path_step(double t_s, const NavState& nav) {
     if (const_k) return image_to_ground_k(g, p_px, U, P.k_m_per_px);
     return image_to_ground_ray(g, p_px);
   };
-  if (P.guidance == "pixel_distribution") return pixel_distribution_step(t_s, nav, g, U, v_img);
 
   // Candidates on the flown trail (all but its last trail_skip_m) are behind: set aside.
   std::vector<Eigen::Vector2d> ground(path_.points_px.size(), Eigen::Vector2d::Zero());
@@ -861,6 +860,14 @@ Setpoint LandingController::follow_path_step(double t_s, const NavState& nav) {
     for (int k = 0; k < trail_n && !excluded[i]; ++k) {
       excluded[i] = (path_trail_[k] - g_dr).norm() < P.trail_radius_m;
     }
+  }
+  if (P.guidance == "pixel_distribution") {
+    // The baseline sees the same candidates, with the flown trail set aside (its dead end).
+    std::vector<Eigen::Vector2d> fresh;
+    for (std::size_t i = 0; i < path_.points_px.size(); ++i) {
+      if (!excluded[i]) fresh.push_back(path_.points_px[i]);
+    }
+    return pixel_distribution_step(t_s, nav, g, U, v_img, fresh);
   }
   std::optional<std::size_t> pick;
   if (!path_dir_known_) {
@@ -912,13 +919,14 @@ Setpoint LandingController::follow_path_step(double t_s, const NavState& nav) {
 // and centroid) turns the heading; the vehicle moves along its body x only, and only while
 // the heading is within baseline_align_deg of the route.
 Setpoint LandingController::pixel_distribution_step(double t_s, const NavState& nav, const GroundView& g,
-                                                    const Eigen::Vector2d& U, const Eigen::Vector2d& v_img) {
-  (void)t_s;
+                                                    const Eigen::Vector2d& U, const Eigen::Vector2d& v_img,
+                                                    const std::vector<Eigen::Vector2d>& candidates) {
   const PathGuidanceParams& P = p_.path;
   const Eigen::Vector2d here = nav.p_W_m.head<2>();
   std::vector<Eigen::Vector2d> pts;
-  for (const Eigen::Vector2d& p : path_.points_px) {
-    if ((p - U).norm() < P.r2_px) pts.push_back(p);
+  for (const Eigen::Vector2d& p : candidates) {
+    const double r = (p - U).norm();
+    if (r > P.r1_px && r < P.r2_px) pts.push_back(p);
   }
   diag_.path_target_valid = pts.size() >= 2;
   if (pts.size() < 2 || v_img.norm() < 1e-6) {

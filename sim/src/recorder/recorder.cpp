@@ -240,7 +240,9 @@ std::optional<Outcome> Recorder::on_step(int k, const VehicleTruth& truth, const
   }
   // Cross-track error at 100 Hz while following the route, until it is covered (the vehicle's
   // ground point within kCovered_m of the route's end by arc length).
-  constexpr double kCovered_m = 0.3;  // about the route's width plus the hold's drift
+  // The law stops where the last candidate leaves the annulus: its inner radius on the
+  // ground (60 px at 4 m: 0.375 m) before the end, plus the hold's drift.
+  constexpr double kCovered_m = 0.5;
   const RouteGeometry& route = world_.route();
   if (!route.empty() && k % 10 == 0 && path_covered_t_ < 0 && c.mode() == ctl::Mode::kFollowPath) {
     if (path_t0_ < 0) path_t0_ = tn;

@@ -226,7 +226,8 @@ class LandingController {
   // follow_path (seed 003): one outer step of the guidance law.
   Setpoint follow_path_step(double t_s, const NavState& nav);
   Setpoint pixel_distribution_step(double t_s, const NavState& nav, const GroundView& g,
-                                   const Eigen::Vector2d& U, const Eigen::Vector2d& v_img);
+                                   const Eigen::Vector2d& U, const Eigen::Vector2d& v_img,
+                                   const std::vector<Eigen::Vector2d>& candidates);
 
   ControllerParams p_;
   CameraMount mount_;
