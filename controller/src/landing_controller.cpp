@@ -953,7 +953,11 @@ Setpoint LandingController::pixel_distribution_step(double t_s, const NavState& 
   for (const Eigen::Vector2d& p : ahead) C += (p - c) * (p - c).transpose();
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(C);
   Eigen::Vector2d axis = es.eigenvectors().col(1);
-  if (axis.dot(v_img) < 0) axis = -axis;
+  // The axis points along the route away from the vehicle: towards the points' centroid
+  // (at a corner the points left are the new leg's), along v when they surround U.
+  const Eigen::Vector2d away = c - U;
+  const Eigen::Vector2d sense = away.norm() > 0.5 * P.r1_px ? away : v_img;
+  if (axis.dot(sense) < 0) axis = -axis;
   // Aim at the centroid pushed along the axis: the heading to that ground point.
   const auto a = image_to_ground_ray(g, c + 100.0 * axis);
   if (!a || a->norm() < 1e-6) return hold(Eigen::Vector3d(hold_p_.x(), hold_p_.y(), path_z_));
