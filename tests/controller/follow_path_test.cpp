@@ -50,6 +50,8 @@ struct PathRun {
   std::function<bool(double)> route_visible = [](double) { return true; };
   bool with_platform{false};
   PlatformTruth platform;
+  std::function<bool(double, const Eigen::Isometry3d&)> platform_visible;  // optional
+  bool direction_given{true};
   std::function<bool(const LandingController&)> stop_when;
 
   std::vector<ModeTransition> transitions;
@@ -60,12 +62,13 @@ struct PathRun {
   double max_speed_mps{0.0};
 
   void run() {
-    params.path.direction_given = true;
+    params.path.direction_given = direction_given;
     LandingController ctl(params, CameraMount{});
     const CameraMount mount;
     const Eigen::Isometry3d X_BC = mount.X_BC();
     const CameraModel cam;
     SyntheticVision vision(VisionModelParams{}, mount, cam);
+    vision.visible = platform_visible;
     const std::vector<Eigen::Vector2d> centre = route.sample(0.2);
     std::deque<std::pair<double, PathPoints>> queue;  // (deliver time, points)
     Eigen::Vector3d p = start, v = Eigen::Vector3d::Zero();
@@ -227,6 +230,31 @@ TEST(FollowPath, TheTargetComingIntoViewEndsFollowingForObserve) {
   // the vision margin) when the vehicle is about 10 m along: it was followed there.
   EXPECT_GT(run.final_p.x(), 8.0);
   EXPECT_LT(run.final_p.x(), 12.0);
+}
+
+TEST(FollowPath, AfterALossTheCartsLastSeenMotionGivesTheDirection) {
+  // The cart is seen driving towards -x, then lost; no direction is configured: the route is
+  // followed towards -x, where the cart went, not towards +x.
+  PathRun run;
+  run.direction_given = false;
+  run.route.pts = {{-14, 0}, {14, 0}};
+  run.start = Eigen::Vector3d(0, 0.2, 6);
+  run.with_platform = true;
+  run.platform.p0_W_m = Eigen::Vector3d(0, 0, 0.8);
+  run.platform.v_W_mps = Eigen::Vector3d(-0.8, 0, 0);
+  run.platform_visible = [](double t, const Eigen::Isometry3d&) { return t < 2.5; };
+  // Route frames only after the loss (the target is preferred while it is in view anyway).
+  run.route_visible = [](double t) { return t > 3.0; };
+  run.max_time_s = 40.0;
+  run.run();
+  SCOPED_TRACE(describe(run.transitions));
+  ASSERT_GE(run.transitions.size(), 3u);
+  EXPECT_EQ(run.transitions[0].to, Mode::kObserve);
+  bool followed = false;
+  for (const ModeTransition& tr : run.transitions) followed = followed || tr.to == Mode::kFollowPath;
+  EXPECT_TRUE(followed);
+  EXPECT_TRUE(run.route_ended);
+  EXPECT_LT((run.final_p.head<2>() - Eigen::Vector2d(-14, 0)).norm(), kEndStopTol_m);
 }
 
 TEST(FollowPath, DisabledNeverFollows) {
