@@ -30,7 +30,16 @@ struct Row {
   bool landed{false};
   double offset{NAN}, x_P{NAN}, y_P{NAN}, speed{NAN}, tilt{NAN}, time{NAN}, wall{NAN};
   json sampled;  // key -> value
+  // Path following (summary.json path_following, worlds with a route; NaN where null).
+  bool has_path{false}, path_covered{false};
+  double xt_mean{NAN}, xt_p95{NAN}, xt_max_cap{NAN}, cover_t{NAN}, target_share{NAN};
 };
+
+// The path-following columns of campaign.csv and their values (campaigns with a route only).
+const std::vector<std::string> kPathColumns = {"path_covered", "path_time_to_cover_s",
+                                               "path_cross_track_mean_m", "path_cross_track_p95_m",
+                                               "path_cross_track_max_after_capture_m",
+                                               "path_target_share"};
 
 double num(const json& j, const char* key) {
   if (!j.is_object() || !j.contains(key) || !j[key].is_number()) return NAN;
@@ -92,6 +101,29 @@ json group_stats(const std::vector<const Row*>& rows) {
   g["touchdown_rel_speed_mps"] = stat_block(speed, false);
   g["touchdown_tilt_deg"] = stat_block(tilt, false);
   g["time_to_land_s"] = stat_block(time, false);
+  // Path following (seed 003), over the completed runs with a route: how many covered their
+  // route and ended at it, and the cross-track figures' distributions over the runs.
+  std::vector<double> xt_mean, xt_p95, xt_cap, cover_t;
+  int with_path = 0, covered = 0, route_end = 0;
+  for (const Row* r : rows) {
+    if (r->status != "ok" || !r->has_path) continue;
+    ++with_path;
+    if (r->path_covered) ++covered;
+    if (r->outcome == "route_end") ++route_end;
+    for (auto [v, out] : {std::pair<double, std::vector<double>*>{r->xt_mean, &xt_mean},
+                          {r->xt_p95, &xt_p95}, {r->xt_max_cap, &xt_cap}, {r->cover_t, &cover_t}}) {
+      if (std::isfinite(v)) out->push_back(v);
+    }
+  }
+  if (with_path > 0) {
+    g["path_following"] = {{"runs", with_path},
+                           {"covered", covered},
+                           {"route_end", route_end},
+                           {"time_to_cover_s", stat_block(cover_t, false)},
+                           {"cross_track_mean_m", stat_block(xt_mean, false)},
+                           {"cross_track_p95_m", stat_block(xt_p95, false)},
+                           {"cross_track_max_after_capture_m", stat_block(xt_cap, false)}};
+  }
   return g;
 }
 
@@ -246,6 +278,16 @@ MergeResult merge_campaign(const std::string& dir, const MergeOptions& o) {
           r.x_P = s["touchdown"]["offset_P_m"][0].get<double>();
           r.y_P = s["touchdown"]["offset_P_m"][1].get<double>();
         }
+        if (s.contains("path_following") && s["path_following"].is_object()) {
+          const json& pf = s["path_following"];
+          r.has_path = true;
+          r.path_covered = pf.value("covered", false);
+          r.cover_t = num(pf, "time_to_cover_s");
+          r.xt_mean = num(pf, "cross_track_mean_m");
+          r.xt_p95 = num(pf, "cross_track_p95_m");
+          r.xt_max_cap = num(pf, "cross_track_max_after_capture_m");
+          r.target_share = num(pf, "target_share");
+        }
       } catch (const json::exception& e) {
         r.status = "error";
         r.outcome = "error";
@@ -267,6 +309,10 @@ MergeResult merge_campaign(const std::string& dir, const MergeOptions& o) {
                         "time_to_land_s", "wall_s", "status", "detail"}) {
     header.push_back(c);
   }
+  // Campaigns with a route get the path-following columns at the end (others keep their
+  // columns exactly).
+  const bool any_path = std::any_of(rows.begin(), rows.end(), [](const Row& r) { return r.has_path; });
+  if (any_path) header.insert(header.end(), kPathColumns.begin(), kPathColumns.end());
   sim::CsvWriter csv(dir + "/campaign.csv", header);
   for (const Row& r : rows) {
     csv.text(r.id).text(r.scenario).text(std::to_string(r.seed)).text(r.outcome).integer(r.landed ? 1 : 0)
@@ -274,6 +320,10 @@ MergeResult merge_campaign(const std::string& dir, const MergeOptions& o) {
     for (const std::string& c : cols) csv.text(json_scalar_text(input_value(r, c)));
     csv.text(cell(r.x_P)).text(cell(r.y_P)).text(cell(r.speed)).text(cell(r.tilt)).text(cell(r.time))
         .text(cell(r.wall)).text(r.status).text(r.detail);
+    if (any_path) {
+      csv.text(r.has_path ? (r.path_covered ? "1" : "0") : "").text(cell(r.cover_t)).text(cell(r.xt_mean))
+          .text(cell(r.xt_p95)).text(cell(r.xt_max_cap)).text(cell(r.target_share));
+    }
     csv.end_row();
   }
   csv.commit();

@@ -84,6 +84,18 @@ void print_campaign_merge(const campaign::MergeResult& m, const std::string& dir
     }
     std::cout << "\n";
   }
+  if (o.contains("path_following")) {
+    // Route campaigns (seed 003): covered and ended routes, the runs' mean cross-track errors.
+    const auto& pf = o["path_following"];
+    const auto& xt = pf["cross_track_mean_m"];
+    std::cout << fmt::format("  path following: {} of {} runs covered their route, {} ended at it",
+                             pf["covered"].get<int>(), pf["runs"].get<int>(), pf["route_end"].get<int>());
+    if (!xt["mean"].is_null()) {
+      std::cout << fmt::format("; cross-track mean {:.1f} cm over the runs (worst run {:.1f} cm)",
+                               100 * xt["mean"].get<double>(), 100 * xt["max"].get<double>());
+    }
+    std::cout << "\n";
+  }
   std::cout << fmt::format("  simulator failures: {}\n", m.simulator_failures);
   std::cout << "  outputs: " << dir << "/campaign.json, " << dir << "/campaign.csv";
   if (m.html_written) std::cout << ", " << dir << "/report.html";
