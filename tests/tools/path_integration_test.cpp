@@ -39,7 +39,8 @@ nlohmann::json run(const std::string& name, const std::string& yaml, int* code, 
 
 // The first three corners of scenarios/path_follow.yaml (straight, right angle, acute 45 deg,
 // obtuse 135 deg) with a yellow distractor and a worn gap of 0.6 m on the first leg, to the
-// end of the route.
+// end of the route. The vehicle starts 0.1 m off the route: the mean measures the following,
+// not the approach from the start (measured: 7.6 cm; 9.0 cm when it starts 0.4 m off).
 TEST(PathIntegration, FollowsTheRouteThroughItsCornersToItsEndWithinTheCrossTrackTolerance) {
   int code = -1;
   std::string text;
@@ -55,7 +56,7 @@ TEST(PathIntegration, FollowsTheRouteThroughItsCornersToItsEndWithinTheCrossTrac
                                "    gaps: [{from_m: 3.0, to_m: 3.6}]\n"
                                "    paint: [{centre_m: [4, -1], size_m: [5, 0.15], rgb: [0.9, 0.8, 0.1]}]\n"
                                "cart: {path: static, start_m: [40, 30]}\n"
-                               "vehicle: {control: closed_loop, start_m: [0.3, 0.4, 4.0]}\n"
+                               "vehicle: {control: closed_loop, start_m: [0.3, 0.1, 4.0]}\n"
                                "flight: {controller: {path: {direction_given: true, direction_deg: 0}}}\n",
                                &code, &text);
   EXPECT_EQ(code, 0) << text;  // expect_outcome route_end
