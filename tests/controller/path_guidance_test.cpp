@@ -14,6 +14,8 @@
 
 #include "lander/estimator/types.h"
 
+#include "common/config_error_checks.h"
+
 namespace lander::ctl {
 namespace {
 
@@ -344,19 +346,7 @@ TEST(PathGuidanceProjection, ARayThatDoesNotDescendGivesNothing) {
 // ---------------------------------------------------------------------------------------
 // Parameters
 
-// Expects `fn` to throw ConfigError whose message contains every string in `needles`.
-template <class Fn>
-void expect_config_error(Fn fn, std::initializer_list<std::string> needles) {
-  try {
-    fn();
-    FAIL() << "expected ConfigError";
-  } catch (const ConfigError& e) {
-    for (const std::string& n : needles) {
-      EXPECT_NE(std::string(e.what()).find(n), std::string::npos)
-          << "message '" << e.what() << "' lacks '" << n << "'";
-    }
-  }
-}
+using lander::test::expect_config_error;
 
 TEST(PathGuidanceParams, DefaultsAreValid) { EXPECT_NO_THROW(PathGuidanceParams{}.validate()); }
 

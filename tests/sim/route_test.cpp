@@ -14,6 +14,8 @@
 
 #include "lander/sim/plant/cart_motion.h"
 
+#include "common/config_error_checks.h"
+
 namespace lander::sim {
 namespace {
 
@@ -431,18 +433,7 @@ TEST(Route, CartOnARouteWithoutOneThrows) {
 // ---------------------------------------------------------------------------------------
 // Parameters
 
-template <class Fn>
-void expect_config_error(Fn fn, std::initializer_list<std::string> needles) {
-  try {
-    fn();
-    FAIL() << "expected ConfigError";
-  } catch (const ConfigError& e) {
-    for (const std::string& n : needles) {
-      EXPECT_NE(std::string(e.what()).find(n), std::string::npos)
-          << "message '" << e.what() << "' lacks '" << n << "'";
-    }
-  }
-}
+using lander::test::expect_config_error;
 
 TEST(Route, ParamsValidateNamesTheKey) {
   EXPECT_NO_THROW(RouteParams{}.validate());  // no route
