@@ -340,8 +340,9 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
       } else {
         path_dir_known_ = false;
       }
-      // Constant height above the ground (the fused height; without one, where it is).
-      path_z_ = altitude_.valid ? nav.p_W_m.z() + (P.height_m - altitude_.h_surface_m) : nav.p_W_m.z();
+      // Constant height: follow_path_step servos it on the fused height above the ground;
+      // without one the vehicle keeps the height it is at.
+      path_z_ = nav.p_W_m.z();
       path_trail_.clear();
       path_dr_ = nav.p_W_m.head<2>();
       path_dr_t_ = t_s;
@@ -796,6 +797,23 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
   return hold(nav.p_W_m);
 }
 
+// follow_path without a target point this step (either guidance): hold where the last one
+// was, at the follow height; none for end_after_s is the route's end, held for good and
+// reported.
+Setpoint LandingController::no_path_target(double t_s, const Eigen::Vector2d& here) {
+  const double waited = t_s - last_target_t_;
+  if (waited > p_.path.end_after_s) {
+    route_ended_ = true;
+    route_end_t_ = t_s;
+    hold_p_ = Eigen::Vector3d(here.x(), here.y(), path_z_);
+    log_event(t_s, "route_end",
+              fmt::format("no route candidate ahead for {:.1f} s ({} guidance): the end of the route; "
+                          "holding at ({:.2f}, {:.2f})",
+                          waited, p_.path.guidance, here.x(), here.y()));
+  }
+  return hold(Eigen::Vector3d(hold_p_.x(), hold_p_.y(), path_z_));
+}
+
 // One outer step of follow_path (seed 003 eq. 10-17, see path_guidance.h).
 Setpoint LandingController::follow_path_step(double t_s, const NavState& nav) {
   const PathGuidanceParams& P = p_.path;
@@ -830,7 +848,8 @@ Setpoint LandingController::follow_path_step(double t_s, const NavState& nav) {
   const bool const_k = P.projection == "constant_k";
   // U: the paper's image centre with the constant scale; the image of the point below the
   // vehicle with the exact projection.
-  const Eigen::Vector2d U = const_k ? Eigen::Vector2d(g.cx, g.cy) : vehicle_image_point(g);
+  const Eigen::Vector2d below = vehicle_image_point(g);
+  const Eigen::Vector2d U = const_k ? Eigen::Vector2d(g.cx, g.cy) : below;
   // v: the velocity's image projection; the kept direction while slow or turning hard.
   Eigen::Vector2d dir = path_dir_W_;
   const Eigen::Vector2d v_W = nav.v_W_mps.head<2>();
@@ -838,7 +857,7 @@ Setpoint LandingController::follow_path_step(double t_s, const NavState& nav) {
     dir = v_W.normalized();
   }
   Eigen::Vector2d v_img = Eigen::Vector2d::Zero();
-  if (const auto a = ground_to_image(g, dir)) v_img = *a - vehicle_image_point(g);
+  if (const auto a = ground_to_image(g, dir)) v_img = *a - below;
   auto to_ground = [&](const Eigen::Vector2d& p_px) -> std::optional<Eigen::Vector2d> {
     if (const_k) return image_to_ground_k(g, p_px, U, P.k_m_per_px);
     return image_to_ground_ray(g, p_px);
@@ -885,20 +904,7 @@ Setpoint LandingController::follow_path_step(double t_s, const NavState& nav) {
   }
   diag_.path_target_valid = pick.has_value();
   if (!pick) {
-    // No candidate ahead: hold where the last target was lost; after end_after_s this is
-    // the route's end.
-    if (t_s - last_target_t_ > P.end_after_s) {
-      route_ended_ = true;
-      route_end_t_ = t_s;
-      hold_p_ = Eigen::Vector3d(here.x(), here.y(), path_z_);
-      log_event(t_s, "route_end",
-                fmt::format("no route candidate ahead for {:.1f} s: the end of the route; holding at "
-                            "({:.2f}, {:.2f})",
-                            t_s - last_target_t_, here.x(), here.y()));
-      return hold(hold_p_);
-    }
-    Setpoint sp = hold(Eigen::Vector3d(hold_p_.x(), hold_p_.y(), path_z_));
-    return sp;
+    return no_path_target(t_s, here);
   }
   ++path_target_steps_;
   last_target_t_ = t_s;
@@ -929,15 +935,7 @@ Setpoint LandingController::pixel_distribution_step(double t_s, const NavState& 
     if (r > P.r1_px && r < P.r2_px) pts.push_back(p);
   }
   diag_.path_target_valid = pts.size() >= 2;
-  if (pts.size() < 2 || v_img.norm() < 1e-6) {
-    if (t_s - last_target_t_ > P.end_after_s) {
-      route_ended_ = true;
-      route_end_t_ = t_s;
-      hold_p_ = Eigen::Vector3d(here.x(), here.y(), path_z_);
-      log_event(t_s, "route_end", fmt::format("pixel distribution: no route pixels for {:.1f} s", t_s - last_target_t_));
-    }
-    return hold(Eigen::Vector3d(hold_p_.x(), hold_p_.y(), path_z_));
-  }
+  if (pts.size() < 2 || v_img.norm() < 1e-6) return no_path_target(t_s, here);
   ++path_target_steps_;
   last_target_t_ = t_s;
   // Principal axis of the points ahead of the vehicle (those on the side of v), centroid.

@@ -63,6 +63,9 @@ void speed_profile(const CartMotionParams& p, double t, double& s, double& sd, d
 CartReference cart_reference(const CartMotionParams& p, double t_s, const RouteGeometry* route) {
   double s, sd, sdd;
   speed_profile(p, t_s, s, sd, sdd);
+  // The point at arc length s: position, heading h and curvature k (1/m) of the path.
+  Eigen::Vector2d pos;
+  double h = 0.0, k = 0.0;
   if (p.path == "route") {
     if (route == nullptr || route->empty()) throw std::logic_error("cart path 'route' without a route");
     s += p.route_start_m;
@@ -71,23 +74,21 @@ CartReference cart_reference(const CartMotionParams& p, double t_s, const RouteG
       sd = sdd = 0.0;
     }
     const RoutePoint rp = route->at(s);
-    const double h = rp.heading_rad, k = rp.curvature;
-    const Eigen::Vector2d t_hat(std::cos(h), std::sin(h)), n_hat(-std::sin(h), std::cos(h));
-    CartReference r;
-    r.q << rp.p_m, h;
-    r.qd << sd * t_hat, k * sd;
-    r.qdd << sdd * t_hat + sd * sd * k * n_hat, k * sdd;
-    return r;
-  }
-  const double k = p.path == "arc" ? 1.0 / p.turn_radius_m : 0.0;  // curvature (1/m)
-  const double h0 = p.heading_rad, h = h0 + k * s;
-  CartReference r;
-  if (k == 0.0) {
-    r.q << p.start_m.x() + s * std::cos(h0), p.start_m.y() + s * std::sin(h0), h0;
+    pos = rp.p_m;
+    h = rp.heading_rad;
+    k = rp.curvature;
   } else {
-    r.q << p.start_m.x() + (std::sin(h) - std::sin(h0)) / k,
-        p.start_m.y() - (std::cos(h) - std::cos(h0)) / k, h;
+    k = p.path == "arc" ? 1.0 / p.turn_radius_m : 0.0;
+    const double h0 = p.heading_rad;
+    h = h0 + k * s;
+    if (k == 0.0) {
+      pos << p.start_m.x() + s * std::cos(h0), p.start_m.y() + s * std::sin(h0);
+    } else {
+      pos << p.start_m.x() + (std::sin(h) - std::sin(h0)) / k, p.start_m.y() - (std::cos(h) - std::cos(h0)) / k;
+    }
   }
+  CartReference r;
+  r.q << pos, h;
   const Eigen::Vector2d t_hat(std::cos(h), std::sin(h)), n_hat(-std::sin(h), std::cos(h));
   r.qd << sd * t_hat, k * sd;
   r.qdd << sdd * t_hat + sd * sd * k * n_hat, k * sdd;

@@ -64,8 +64,8 @@ void paint_route(mjModel* m, const RouteParams& rp, const RouteGeometry& route, 
     place("route_box_", boxes, r.centre_m, r.heading_rad, {0.5 * r.length_m, w2, top}, rp.rgb);
   }
   for (const Eigen::Vector2d& c : route.paint_discs()) {
-    place("route_disc_", discs, c, 0.0, {w2, 0.0, top}, rp.rgb);
-    m->geom_size[3 * mj_name2id(m, mjOBJ_GEOM, ("route_disc_" + std::to_string(discs - 1)).c_str()) + 1] = top;
+    // A cylinder's size is (radius, half-height, unused).
+    place("route_disc_", discs, c, 0.0, {w2, top, top}, rp.rgb);
   }
   for (const PaintPatch& p : rp.paint) {
     place("paint_box_", patches, p.centre_m, p.yaw_rad, {0.5 * p.size_m.x(), 0.5 * p.size_m.y(), 0.0035}, p.rgb);

@@ -346,21 +346,17 @@ void Recorder::finish(const Outcome& outcome, const flight::FlightStack& fs, Jso
   if (!world_.route().empty()) {
     // Path following (seed 003, issue 14): null where there is nothing to measure.
     Json pf = Json::object();
-    std::vector<double> e = cross_track_m_;
-    std::sort(e.begin(), e.end());
-    auto q = [&](double f) { return e.empty() ? kNaN : e[static_cast<std::size_t>(f * (e.size() - 1) + 0.5)]; };
-    double sum = 0;
-    for (double x : e) sum += x;
+    const SampleSummary xt = summarize(cross_track_m_);
     pf["route_length_m"] = world_.route().length();
     pf["followed_from_s"] = path_t0_ >= 0 ? path_t0_ : kNaN;
     pf["covered"] = path_covered_t_ >= 0;
     pf["time_to_cover_s"] = path_covered_t_ >= 0 ? path_covered_t_ - path_t0_ : kNaN;
     pf["covered_m"] = path_s_max_;
-    pf["cross_track_samples"] = static_cast<int>(e.size());
-    pf["cross_track_mean_m"] = e.empty() ? kNaN : sum / static_cast<double>(e.size());
-    pf["cross_track_median_m"] = q(0.5);
-    pf["cross_track_p95_m"] = q(0.95);
-    pf["cross_track_max_m"] = e.empty() ? kNaN : e.back();
+    pf["cross_track_samples"] = static_cast<int>(xt.n);
+    pf["cross_track_mean_m"] = xt.mean;
+    pf["cross_track_median_m"] = xt.median;
+    pf["cross_track_p95_m"] = xt.p95;
+    pf["cross_track_max_m"] = xt.max;
     // The largest error once the vehicle first came within kCaptured_m of the centre line
     // (the max above includes the approach from the start point).
     constexpr double kCaptured_m = 0.1;  // half the paper's route width

@@ -225,6 +225,9 @@ class LandingController {
 
   // follow_path (seed 003): one outer step of the guidance law.
   Setpoint follow_path_step(double t_s, const NavState& nav);
+  // follow_path with no target point this step: hold, and declare the route's end after
+  // end_after_s.
+  Setpoint no_path_target(double t_s, const Eigen::Vector2d& here);
   Setpoint pixel_distribution_step(double t_s, const NavState& nav, const GroundView& g,
                                    const Eigen::Vector2d& U, const Eigen::Vector2d& v_img,
                                    const std::vector<Eigen::Vector2d>& candidates);
