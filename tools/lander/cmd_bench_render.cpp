@@ -52,12 +52,23 @@ int bench_render(const Args& args) {
   cv::Mat img;
   place(0, 0);
   renderer.render_camera(world.model(), world.data(), world.camera_id(), W, H, img);  // warm-up
-  std::vector<double> plain, blur;
+  std::vector<double> plain, blur, bare;
+  renderer.reset_times();
   for (int i = 0; i < n; ++i) {
     place(i, 0);
     const auto t0 = std::chrono::steady_clock::now();
     renderer.render_camera(world.model(), world.data(), world.camera_id(), W, H, img);
     plain.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  }
+  const sim::RenderTimes prof = renderer.times();
+  // The same views through a bare MuJoCo render (default scene flags and options, readPixels
+  // into RGB, no conversion): what the camera path costs above MuJoCo itself.
+  std::vector<unsigned char> rgb;
+  for (int i = 0; i < n; ++i) {
+    place(i, 0);
+    const auto t0 = std::chrono::steady_clock::now();
+    renderer.render_camera_bare(world.model(), world.data(), world.camera_id(), W, H, rgb);
+    bare.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   }
   sim::CameraParams cp = s.camera;
   cp.blur_samples = 8;
@@ -114,6 +125,14 @@ int bench_render(const Args& args) {
   j["ms_per_frame_median"] = sim::summarize(plain).median;
   j["ms_per_frame_mean"] = sim::summarize(plain).mean;
   j["ms_per_frame_max"] = sim::summarize(plain).max;
+  const double nr = std::max(1, prof.renders);
+  j["profile_ms_per_frame_mean"] = {{"scene_update", prof.scene_ms / nr},
+                                    {"draw", prof.draw_ms / nr},
+                                    {"read_pixels", prof.read_ms / nr},
+                                    {"flip_convert", prof.convert_ms / nr}};
+  j["bare_mujoco_ms_per_frame_median"] = sim::summarize(bare).median;
+  j["bare_mujoco_ms_per_frame_mean"] = sim::summarize(bare).mean;
+  j["ours_over_bare_median"] = sim::summarize(plain).median / sim::summarize(bare).median;
   j["distortion"] = {{"k1", dp.intrinsics.k1},
                      {"render_width_px", drs.width},
                      {"render_height_px", drs.height},

@@ -1,4 +1,4 @@
-// `lander run SCENARIO.yaml --out DIR [--video] [--quiet]`
+// `lander run SCENARIO.yaml --out DIR [--video] [--quiet] [--vision-schedule auto|serial|overlap]`
 #include <iostream>
 
 #include "command.h"
@@ -8,11 +8,12 @@ namespace lander::cli {
 namespace {
 
 int run(const Args& args) {
-  ArgParser a(args, {"out", "seed", "record-vision", "replay-vision", "save-frames"}, {"video", "quiet"});
+  ArgParser a(args, {"out", "seed", "record-vision", "replay-vision", "save-frames", "vision-schedule"}, {"video", "quiet"});
   if (a.positional().size() != 1) {
     throw UsageError(
         "usage: lander run SCENARIO.yaml --out DIR [--seed N] [--video] [--quiet] "
-        "[--record-vision FILE | --replay-vision FILE] [--save-frames DIR]");
+        "[--record-vision FILE | --replay-vision FILE] [--save-frames DIR] "
+        "[--vision-schedule auto|serial|overlap]");
   }
   if (a.has("record-vision") && a.has("replay-vision")) {
     throw UsageError("--record-vision and --replay-vision exclude each other");
@@ -28,6 +29,11 @@ int run(const Args& args) {
   o.record_vision = a.value("record-vision");
   o.replay_vision = a.value("replay-vision");
   o.save_frames_dir = a.value("save-frames");
+  // The estimator on a worker thread or in line: same outputs bit for bit (README, Performance).
+  o.vision_schedule = a.value("vision-schedule", std::string("auto"));
+  if (o.vision_schedule != "auto" && o.vision_schedule != "serial" && o.vision_schedule != "overlap") {
+    throw UsageError("--vision-schedule must be auto, serial or overlap (got '" + o.vision_schedule + "')");
+  }
   const nlohmann::ordered_json summary = sim::run_scenario(s, o);
   const std::string outcome = summary.at("outcome").get<std::string>();
   std::cout << "lander run: " << s.name << ": " << outcome << "\noutputs in " << o.out_dir
@@ -40,7 +46,7 @@ int run(const Args& args) {
 
 const LanderCommand reg("run",
                         "run SCENARIO.yaml --out DIR [--seed N] [--video] [--quiet] "
-                        "[--record-vision F | --replay-vision F] [--save-frames DIR]: run one scenario",
+                        "[--record-vision F | --replay-vision F] [--save-frames DIR] [--vision-schedule S]: run one scenario",
                         Kind::Command, run);
 
 }  // namespace

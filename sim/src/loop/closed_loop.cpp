@@ -3,12 +3,14 @@
 //
 // Per physics step at time t: the camera renders what falls at t and, when an exposure ends,
 // the flight stack's detector processes the frame, whose result is delivered after the
-// processing latency; the plant steps with the rotor command; the sensors sample the new
+// processing latency (on a worker thread while the plant goes on, joined at the delivery time
+// at the latest: see VisionStage); the plant steps with the rotor command; the sensors sample the new
 // truth and transmit (after their latencies); everything delivered reaches the flight stack,
 // whose controller's inner loop runs on each IMU sample and sets the rotor command; the
 // recorder judges and logs. The flight stack is built from the scenario's `flight:` section
 // only and never sees the plant's parameters or the truth.
 #include <chrono>
+#include <future>
 #include <iostream>
 
 #include <fmt/format.h>
@@ -78,6 +80,87 @@ class VisionOutliers {
   bool started_ = false;
 };
 
+// One camera frame's vision work: the frame, what the recorder captured at its exposure end,
+// and what the flight software's vision computes from the frame alone.
+struct VisionJob {
+  CameraFrame frame;
+  Recorder::FrameCapture capture;
+  double deliver_t_s{0};
+  bool run_path{false};
+  RingDetection det;
+  std::optional<PathObservation> path;
+  double proc_ms{0};
+};
+
+// The estimator's vision stage of the loop. The detector (and the path stage) depend only on
+// the frame and the detector's own state (frames in order), never on the filters or the
+// controller, whose state moves on meanwhile. So frame k's detection can run on a worker
+// thread while the main thread steps the plant, samples the sensors and renders frame k + 1,
+// as long as its result is joined (a) before the detector takes the next frame and (b) no
+// later than the physics step at which it is delivered. The result then enters the delivery
+// queue at the same instant, in the same order, as in the serial schedule: the outputs are
+// the same bit for bit. Only the detector's own calls run on the worker; everything else
+// (outlier hooks, the recorder, the queue) runs on the main thread at the join, in frame order.
+class VisionStage {
+ public:
+  VisionStage(flight::FlightStack& flight, bool overlap) : flight_(flight), overlap_(overlap) {}
+  ~VisionStage() {
+    if (future_.valid()) future_.wait();  // never leave the worker running past the loop
+  }
+  bool overlapped() const { return overlap_; }
+
+  // Starts (or, serially, does) frame `job`'s detection. The previous job must be taken.
+  void submit(VisionJob job) {
+    if (overlap_) {
+      future_ = std::async(std::launch::async, [this, j = std::move(job)]() mutable {
+        run(j);
+        return std::move(j);
+      });
+    } else {
+      run(job);
+      done_ = std::move(job);
+    }
+    pending_ = true;
+  }
+  bool pending() const { return pending_; }
+  double pending_deliver_t() const { return deliver_t_; }
+  void set_pending_deliver_t(double t) { deliver_t_ = t; }
+  // The submitted job, finished (waits for the worker). *wait_ms gets the time waited.
+  VisionJob take(double* wait_ms) {
+    pending_ = false;
+    if (!overlap_) return std::move(*done_);
+    const auto t0 = Clock::now();
+    VisionJob j = future_.get();
+    *wait_ms += ms_since(t0);
+    return j;
+  }
+
+ private:
+  void run(VisionJob& j) {
+    const auto t0 = Clock::now();
+    j.det = flight_.detect(j.frame.bgr);
+    if (j.run_path) j.path = flight_.detect_path(j.frame.bgr, j.frame.exposure.mid());
+    j.proc_ms = ms_since(t0);
+  }
+
+  flight::FlightStack& flight_;
+  const bool overlap_;
+  bool pending_ = false;
+  double deliver_t_ = 0;
+  std::future<VisionJob> future_;
+  std::optional<VisionJob> done_;
+};
+
+bool overlap_vision(const Scenario& s, const RunOptions& o) {
+  if (o.vision_schedule == "serial") return false;
+  if (o.vision_schedule == "overlap") return !s.computer.measured_latency;
+  if (o.vision_schedule != "auto") {
+    throw std::invalid_argument("vision_schedule must be auto, serial or overlap (got '" + o.vision_schedule + "')");
+  }
+  // The overlap pays only when the result is due after the next frame's exposure starts.
+  return !s.computer.measured_latency && s.computer.vision_latency_s + s.camera.exposure_s >= 1.0 / s.camera.rate_hz;
+}
+
 }  // namespace
 
 LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world, Renderer* renderer,
@@ -104,6 +187,26 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
   }
 
   LoopResult res;
+  VisionStage vision(flight, !replay && overlap_vision(s, o));
+  // A finished detection, in frame order on the main thread: outlier hook, the result to
+  // deliver, the recorder, the delivery queue.
+  auto finish_vision = [&]() {
+    VisionJob j = vision.take(&res.vision_wait_ms);
+    res.estimator_ms += j.proc_ms;
+    const double t_mid = j.frame.exposure.mid();
+    if (outliers.apply(t_mid, j.det)) recorder.count_outlier_injected();
+    flight::VisionResult vr = flight.vision_result(j.det, t_mid);
+    vr.path = std::move(j.path);
+    recorder.on_frame(j.frame, j.capture, j.det, vr);
+    if (fault_active(t_mid, F.nan_vision_t_s, F.nan_vision_duration_s)) {
+      corrupt_observation(vr.obs);  // test hook: a "detection" with a NaN pose
+      vr.h_plane_m = height_above_target_m(vr.obs.X_CP, flight.mount().X_BC());
+    }
+    const double latency = s.computer.measured_latency ? j.proc_ms * 1e-3 : s.computer.vision_latency_s;
+    const double deliver_t = j.frame.exposure.t_end_s + latency;
+    vision_q.push(vr, deliver_t);
+    if (!o.record_vision.empty()) vision_log.push_back({j.frame.index, deliver_t, vr});
+  };
   RotorArray w_cmd;
   w_cmd.fill(plant.hover_speed_radps());
   Outcome outcome{"timeout", fmt::format("no landing within duration_s = {:.1f} s", s.duration_s)};
@@ -117,27 +220,17 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
     if (!replay) frame = camera.advance(t, world, *renderer, &res.render_ms);
     if (frame) {
       if (!o.save_frames_dir.empty()) save_frame_png(o.save_frames_dir, *frame);
-      const auto t0 = Clock::now();
-      RingDetection det = flight.detect(frame->bgr);
-      const double t_mid = frame->exposure.mid();
+      if (vision.pending()) finish_vision();  // the detector takes frames in order
+      VisionJob job;
+      job.capture = recorder.capture_frame(*frame, flight);
       // The path stage (seed 003) runs only while the flight software can use it.
-      std::optional<PathObservation> path;
-      if (flight.wants_path()) path = flight.detect_path(frame->bgr, t_mid);
-      const double proc_ms = ms_since(t0);
-      res.estimator_ms += proc_ms;
-      if (outliers.apply(t_mid, det)) recorder.count_outlier_injected();
-      flight::VisionResult vr = flight.vision_result(det, t_mid);
-      vr.path = std::move(path);
-      recorder.on_frame(*frame, det, vr, flight);
-      if (fault_active(t_mid, F.nan_vision_t_s, F.nan_vision_duration_s)) {
-        corrupt_observation(vr.obs);  // test hook: a "detection" with a NaN pose
-        vr.h_plane_m = height_above_target_m(vr.obs.X_CP, flight.mount().X_BC());
-      }
-      const double latency = s.computer.measured_latency ? proc_ms * 1e-3 : s.computer.vision_latency_s;
-      vision_q.push(vr, frame->exposure.t_end_s + latency);
-      if (!o.record_vision.empty()) {
-        vision_log.push_back({frame->index, frame->exposure.t_end_s + latency, vr});
-      }
+      job.run_path = flight.wants_path();
+      job.frame = std::move(*frame);
+      // With a measured latency the delivery time is known only after the processing (serial).
+      const double t_end = job.frame.exposure.t_end_s;
+      vision.submit(std::move(job));
+      if (!s.computer.measured_latency) vision.set_pending_deliver_t(t_end + s.computer.vision_latency_s);
+      if (!vision.overlapped()) finish_vision();
     }
     // ---- plant ----
     const auto tp0 = Clock::now();
@@ -149,6 +242,7 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
     res.physics_ms += ms_since(tp0);
     const VehicleTruth& truth = plant.truth();
     // ---- sensors -> flight stack ----
+    if (vision.pending() && vision.pending_deliver_t() <= tn + 1e-12) finish_vision();  // due now
     const auto tc0 = Clock::now();
     SensorSuite::Sampled smp = sensors.sample(truth);
     recorder.on_samples(smp, truth);
@@ -158,7 +252,10 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
     for (const BaroSample& b : in.baro) flight.on_baro(b);
     for (const GpsSample& g : in.gps) flight.on_gps(g);
     for (const UltrasonicSample& u : in.ultrasonic) flight.on_ultrasonic(u);
-    for (const flight::VisionResult& vr : vision_q.pop_ready(tn)) flight.on_vision(vr);
+    for (const flight::VisionResult& vr : vision_q.pop_ready(tn)) {
+      recorder.on_vision_delivered(vr);
+      flight.on_vision(vr);
+    }
     for (const MagSample& m : in.magnetometer) flight.on_mag(m);
     for (const ImuSample& imu : in.imu) {
       if (const auto cmd = flight.on_imu(imu)) {
@@ -178,7 +275,9 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
                 << std::flush;
     }
   }
+  if (vision.pending()) finish_vision();  // the last frame counts as in the serial schedule
   if (o.progress) std::cerr << "\n";
+  res.overlapped = vision.overlapped();
   res.wall_s = std::chrono::duration<double>(Clock::now() - wall0).count();
   res.frames = camera.frames();
   res.outliers_injected = recorder.outliers_injected();

@@ -213,10 +213,12 @@ Json run_scenario(const Scenario& s, const RunOptions& o) {
       perf["wall_seconds"] = r.wall_s;
       perf["realtime_factor"] = r.wall_s > 0 ? r.sim_s / r.wall_s : 0.0;
       const double n = std::max(1, r.frames);
+      perf["vision_schedule"] = r.overlapped ? "overlapped" : "serial";
       perf["ms_per_camera_frame"] = {{"render", r.render_ms / n},
                                      {"estimator", r.estimator_ms / n},
                                      {"control", r.control_ms / n},
-                                     {"physics", r.physics_ms / n}};
+                                     {"physics", r.physics_ms / n},
+                                     {"vision_wait", r.vision_wait_ms / n}};
       // Timings differ run to run: they go beside summary.json, which stays deterministic.
       write_json_file(o.out_dir + "/performance.json", perf);
     }

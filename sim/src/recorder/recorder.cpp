@@ -139,8 +139,24 @@ Recorder::Recorder(const Scenario& s, const RunOptions& o, World& world, Rendere
   }
 }
 
-void Recorder::on_frame(const CameraFrame& frame, const RingDetection& det,
-                        const flight::VisionResult& vr, const flight::FlightStack& fs) {
+Recorder::FrameCapture Recorder::capture_frame(const CameraFrame& frame, const flight::FlightStack& fs) {
+  FrameCapture cap;
+  // Truth at mid-exposure (the state now is the exposure end).
+  cap.z_mid_m = world_.X_WB().translation().z() -
+                world_.v_WB().z() * (frame.exposure.t_end_s - frame.exposure.mid());
+  cap.h_ray_m = world_.ray_distance(world_.X_WB().translation(), -Eigen::Vector3d::UnitZ());
+  cap.platform_z_m = world_.X_WP().translation().z();
+  if (!video_) return cap;
+  cap.mode = ctl::to_string(fs.controller().mode());
+  cap.altitude_started = fs.altitude_started();
+  cap.altitude = fs.altitude();
+  renderer_->render_free(world_.model(), world_.data(), chase_camera(world_, s_.video), s_.video.chase_width_px,
+                         s_.video.chase_height_px, cap.chase);
+  return cap;
+}
+
+void Recorder::on_frame(const CameraFrame& frame, const FrameCapture& cap, const RingDetection& det,
+                        const flight::VisionResult& vr) {
   ++frames_;
   if (det.detected) {
     ++detections_;
@@ -149,21 +165,15 @@ void Recorder::on_frame(const CameraFrame& frame, const RingDetection& det,
   } else {
     ++not_detected_reasons_[to_string(det.status)];
   }
-  last_detected_ = det.detected;
   const double t_mid = frame.exposure.mid();
   if (det.detected && det.keyframe && std::isfinite(vr.h_plane_m)) {
-    // Truth at mid-exposure (the state now is the exposure end).
-    const double z_mid = world_.X_WB().translation().z() -
-                         world_.v_WB().z() * (frame.exposure.t_end_s - t_mid);
-    const double h_ray = world_.ray_distance(world_.X_WB().translation(), -Eigen::Vector3d::UnitZ());
-    alt_metrics_.add("vision", vr.h_plane_m - (z_mid - world_.X_WP().translation().z()),
-                     h_ray > 0 ? h_ray : z_mid);
+    alt_metrics_.add("vision", vr.h_plane_m - (cap.z_mid_m - cap.platform_z_m),
+                     cap.h_ray_m > 0 ? cap.h_ray_m : cap.z_mid_m);
   }
   if (!video_) return;
   const CameraModel& cam = s_.camera.intrinsics;
   cv::Mat small;
   cv::resize(frame.bgr, small, cv::Size(video_w_, video_h_), 0, 0, cv::INTER_AREA);
-  const std::string mode = ctl::to_string(fs.controller().mode());
   if (s_.video.overlays) {
     const double scale = static_cast<double>(video_w_) / cam.width_px;
     draw_detection(small, det, scale);
@@ -174,11 +184,11 @@ void Recorder::on_frame(const CameraFrame& frame, const RingDetection& det,
         cv::circle(small, cv::Point2d(p.x() * scale, p.y() * scale), 4, cv::Scalar(255, 255, 0), 2, cv::LINE_AA);
       }
     }
-    put_text(small, fmt::format("t {:.2f} s   mode {}{}", t_mid, mode,
+    put_text(small, fmt::format("t {:.2f} s   mode {}{}", t_mid, cap.mode,
                                 vr.path ? fmt::format("   route points {}", vr.path->points_px.size()) : std::string()),
              0);
-    if (fs.altitude_started()) {
-      const AltitudeEstimate a = fs.altitude();
+    if (cap.altitude_started) {
+      const AltitudeEstimate& a = cap.altitude;
       put_text(small, fmt::format("fused height above surface {:.2f} m   z {:.2f} m", a.h_surface_m, a.z_W_m), 1);
     } else {
       put_text(small, "fused height: no estimate yet", 1);
@@ -190,10 +200,8 @@ void Recorder::on_frame(const CameraFrame& frame, const RingDetection& det,
              2);
   }
   cam_video_->write(small);
-  cv::Mat chase;
-  renderer_->render_free(world_.model(), world_.data(), chase_camera(world_, s_.video), s_.video.chase_width_px,
-                        s_.video.chase_height_px, chase);
-  if (s_.video.overlays) put_text(chase, fmt::format("t {:.2f} s  mode {}", t_mid, mode), 0);
+  cv::Mat chase = cap.chase;
+  if (s_.video.overlays) put_text(chase, fmt::format("t {:.2f} s  mode {}", t_mid, cap.mode), 0);
   chase_video_->write(chase);
 }
 

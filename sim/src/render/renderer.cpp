@@ -1,5 +1,7 @@
 #include "lander/sim/render/renderer.h"
 
+#include <chrono>
+
 #include <opencv2/imgproc.hpp>
 
 namespace lander::sim {
@@ -22,6 +24,7 @@ Renderer::Renderer(const mjModel* m, const RenderParams& params) : params_(param
 Renderer::~Renderer() {
   mjr_freeContext(&context_);
   mjv_freeScene(&scene_);
+  if (bare_scene_) mjv_freeScene(bare_scene_.get());
 }
 
 void Renderer::upload_texture(const mjModel* m, int tex_id) {
@@ -69,11 +72,20 @@ void Renderer::render(const mjModel* m, mjData* d, mjvCamera& cam, int width, in
                   " exceeds the offscreen buffer " + std::to_string(context_.offWidth) + "x" +
                   std::to_string(context_.offHeight));
   }
+  using Clock = std::chrono::steady_clock;
+  auto ms = [](Clock::time_point a, Clock::time_point b) {
+    return std::chrono::duration<double, std::milli>(b - a).count();
+  };
   const mjrRect viewport = {0, 0, width, height};
+  const auto t0 = Clock::now();
   mjv_updateScene(m, d, &option_, nullptr, &cam, mjCAT_ALL, &scene_);
+  const auto t1 = Clock::now();
   mjr_render(viewport, &scene_, &context_);
+  mjr_finish();  // the read-back waits for the drawing anyway; this only splits the timing
+  const auto t2 = Clock::now();
   rgb_.resize(static_cast<std::size_t>(width) * height * 3);
   mjr_readPixels(rgb_.data(), nullptr, viewport, &context_);
+  const auto t3 = Clock::now();
   // OpenGL rows run bottom-up: one pass flips rows and swaps RGB -> BGR.
   bgr.create(height, width, CV_8UC3);
   for (int r = 0; r < height; ++r) {
@@ -82,6 +94,33 @@ void Renderer::render(const mjModel* m, mjData* d, mjvCamera& cam, int width, in
     cv::Mat dst = bgr.row(r);
     cv::cvtColor(src, dst, cv::COLOR_RGB2BGR);
   }
+  const auto t4 = Clock::now();
+  ++times_.renders;
+  times_.scene_ms += ms(t0, t1);
+  times_.draw_ms += ms(t1, t2);
+  times_.read_ms += ms(t2, t3);
+  times_.convert_ms += ms(t3, t4);
+}
+
+void Renderer::render_camera_bare(const mjModel* m, mjData* d, int cam_id, int width, int height,
+                                  std::vector<unsigned char>& rgb) {
+  mjvCamera cam;
+  mjv_defaultCamera(&cam);
+  cam.type = mjCAMERA_FIXED;
+  cam.fixedcamid = cam_id;
+  mjvOption opt;
+  mjv_defaultOption(&opt);
+  if (!bare_scene_) {
+    bare_scene_ = std::make_unique<mjvScene>();
+    mjv_defaultScene(bare_scene_.get());
+    mjv_makeScene(m, bare_scene_.get(), 2000);
+  }
+  mjvScene& scn = *bare_scene_;
+  const mjrRect viewport = {0, 0, width, height};
+  mjv_updateScene(m, d, &opt, nullptr, &cam, mjCAT_ALL, &scn);
+  mjr_render(viewport, &scn, &context_);
+  rgb.resize(static_cast<std::size_t>(width) * height * 3);
+  mjr_readPixels(rgb.data(), nullptr, viewport, &context_);
 }
 
 }  // namespace lander::sim

@@ -19,6 +19,8 @@ struct LoopResult {
   double estimator_ms{0.0};  ///< ring detector on each frame
   double control_ms{0.0};    ///< sensors, navigation, altitude fusion, controller
   double physics_ms{0.0};    ///< motors, ground-effect rays, wind, mj_step
+  double vision_wait_ms{0.0}; ///< main thread blocked joining the vision worker (overlap)
+  bool overlapped{false};     ///< the vision worker ran (RunOptions::vision_schedule)
   int frames{0};
   int outliers_injected{0};
 };

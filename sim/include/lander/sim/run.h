@@ -29,6 +29,12 @@ struct RunOptions {
   std::string replay_vision;   ///< closed loop: deliver these recorded vision results instead
                                ///< of rendering and detecting (no renderer without video)
   std::string save_frames_dir; ///< write every camera frame as PNG (frame_NNNNN.png) here
+  // Vision schedule of the closed loop. auto: the estimator works on frame k on a worker
+  // thread while the plant and the camera go on, and its result is joined at its delivery
+  // time (t_end + computer.vision_latency_ms), when that latency is at least a frame period
+  // and not measured; serial otherwise. serial: detect at the exposure end, in line. overlap:
+  // always the worker. All three give the same outputs bit for bit (a test checks).
+  std::string vision_schedule{"auto"};
 };
 
 // Checks everything that can be checked before any output is written: the scenario, the

@@ -59,10 +59,25 @@ class Recorder {
   // `renderer` is used only for the chase video (may be null without video).
   Recorder(const Scenario& s, const RunOptions& o, World& world, Renderer* renderer);
 
-  // A finished camera frame, the flight software's detection and the result it will deliver
-  // (before any corruption hook): vision counts, the vision height error, video frames.
-  void on_frame(const CameraFrame& frame, const RingDetection& det, const flight::VisionResult& vr,
-                const flight::FlightStack& fs);
+  // What the recorder keeps of the world and the flight software at a frame's exposure end,
+  // taken then (capture_frame) and used when the frame's detection is ready (on_frame), which
+  // with the overlapped vision schedule is later, after the plant has moved on.
+  struct FrameCapture {
+    double z_mid_m{0}, h_ray_m{0}, platform_z_m{0};  ///< truth at mid-exposure
+    std::string mode;                                 ///< controller mode then (video)
+    bool altitude_started{false};
+    AltitudeEstimate altitude;
+    cv::Mat chase;                                    ///< chase-view frame (video only)
+  };
+  FrameCapture capture_frame(const CameraFrame& frame, const flight::FlightStack& fs);
+  // A finished camera frame with its capture, the flight software's detection and the result
+  // it will deliver (before any corruption hook): vision counts, the vision height error,
+  // video frames.
+  void on_frame(const CameraFrame& frame, const FrameCapture& cap, const RingDetection& det,
+                const flight::VisionResult& vr);
+  // A vision result reaching the flight software: the trace's `detected` column follows what
+  // the flight software has been told.
+  void on_vision_delivered(const flight::VisionResult& vr) { last_detected_ = vr.obs.detected; }
   // The samples taken at truth.t_s, as the sensors measured them: per-sensor height errors.
   void on_samples(const SensorSuite::Sampled& smp, const VehicleTruth& truth);
   // After the step k (time truth.t_s) and the flight software's updates: fused-height errors,

@@ -31,6 +31,14 @@ void visit_fields(V& v, RenderParams& p) {
   v("shadows", p.shadows);
 }
 
+// Where a render's wall time goes (accumulated over every render of this renderer): MuJoCo's
+// scene update (mjv_updateScene), drawing (mjr_render up to mjr_finish: the rasteriser's
+// work), read-back (mjr_readPixels) and our one flip + RGB->BGR pass.
+struct RenderTimes {
+  int renders{0};
+  double scene_ms{0}, draw_ms{0}, read_ms{0}, convert_ms{0};
+};
+
 class Renderer {
  public:
   // Creates the GL context and MuJoCo's rendering context (uploads the model's textures, so
@@ -53,6 +61,13 @@ class Renderer {
   void upload_texture(const mjModel* m, int tex_id);
 
   std::string backend_description() const { return gl_->description(); }
+  const RenderTimes& times() const { return times_; }
+  void reset_times() { times_ = RenderTimes{}; }
+  // MuJoCo's own render of the same camera with its default flags and no conversion
+  // (mjv_updateScene + mjr_render + mjr_readPixels into `rgb`, rows bottom-up): what a bare
+  // MuJoCo program pays, for `lander bench render` to compare with.
+  void render_camera_bare(const mjModel* m, mjData* d, int cam_id, int width, int height,
+                          std::vector<unsigned char>& rgb);
 
  private:
   void render(const mjModel* m, mjData* d, mjvCamera& cam, int width, int height, cv::Mat& bgr);
@@ -65,6 +80,8 @@ class Renderer {
   mjrContext context_;
   mjvOption option_;
   std::vector<unsigned char> rgb_;
+  RenderTimes times_;
+  std::unique_ptr<mjvScene> bare_scene_;  // MuJoCo's default scene (render_camera_bare)
 };
 
 }  // namespace lander::sim
