@@ -60,3 +60,72 @@ TEST(CameraPipeline, GainScalesAndClipsAtWhite) {
 
 }  // namespace
 }  // namespace lander::sim
+
+namespace lander::sim {
+namespace {
+
+// The camera looking straight down (OpenCV z along -z_W) from `height_m` above the origin.
+ExposureMotion looking_down(double height_m) {
+  ExposureMotion m;
+  m.X_WC.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  m.X_WC.translation() = Eigen::Vector3d(0, 0, height_m);
+  return m;
+}
+
+// Image motion of the adaptive blur against closed forms. Tolerance 1e-9 px: the same
+// pinhole arithmetic in another order.
+TEST(AdaptiveBlur, TranslationParallelToTheImageMovesAStillPointByFTimesDistanceOverDepth) {
+  const CameraModel cam;  // the default 1280 x 720 camera
+  ExposureMotion m = looking_down(10.0);
+  m.v_W = Eigen::Vector3d(2.0, 0, 0);
+  m.points_W = {Eigen::Vector3d(0.5, -0.3, 0.0)};
+  m.point_velocities_W = {Eigen::Vector3d::Zero()};
+  EXPECT_NEAR(image_motion_px(cam, m, 0.02), cam.fx_px * 2.0 * 0.02 / 10.0, 1e-9);
+  // The same point moving with the camera (a cart under a vehicle flying along): no motion.
+  m.point_velocities_W = {Eigen::Vector3d(2.0, 0, 0)};
+  EXPECT_NEAR(image_motion_px(cam, m, 0.02), 0.0, 1e-9);
+}
+
+TEST(AdaptiveBlur, RotationAboutTheOpticalAxisMovesAPointAlongItsChord) {
+  const CameraModel cam;
+  ExposureMotion m = looking_down(5.0);
+  m.w_W = Eigen::Vector3d(0, 0, 1.5);  // yaw rate, rad/s
+  // A ground point seen 300 px right of the principal point.
+  m.points_W = {Eigen::Vector3d(300.0 * 5.0 / cam.fx_px, 0, 0)};
+  m.point_velocities_W = {Eigen::Vector3d::Zero()};
+  const double r = 300.0, angle = 1.5 * 0.02;
+  EXPECT_NEAR(image_motion_px(cam, m, 0.02), 2.0 * r * std::sin(angle / 2), 1e-6);
+}
+
+TEST(AdaptiveBlur, PointsBehindTheCameraOrFarOutsideTheImageDoNotCount) {
+  const CameraModel cam;
+  ExposureMotion m = looking_down(10.0);
+  m.v_W = Eigen::Vector3d(1.0, 0, 0);
+  m.points_W = {Eigen::Vector3d(0, 0, 20.0), Eigen::Vector3d(200.0, 0, 0.0)};  // behind; 200 m aside
+  m.point_velocities_W = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  EXPECT_EQ(image_motion_px(cam, m, 0.02), 0.0);
+}
+
+TEST(AdaptiveBlur, RendersFollowTheMotionUpToTheCap) {
+  CameraParams p;
+  p.blur_samples = 8;
+  p.blur_px_per_render = 1.0;
+  EXPECT_EQ(blur_renders(p, 0.0), 1);    // hover: one render
+  EXPECT_EQ(blur_renders(p, 0.4), 1);
+  EXPECT_EQ(blur_renders(p, 3.2), 4);    // one render per started pixel
+  EXPECT_EQ(blur_renders(p, 40.0), 8);   // capped
+  EXPECT_EQ(blur_renders(p, std::nan("")), 1);
+  p.blur_px_per_render = 2.0;
+  EXPECT_EQ(blur_renders(p, 3.2), 2);
+  p.blur_px_per_render = 0.0;            // fixed count
+  EXPECT_EQ(blur_renders(p, 0.0), 8);
+  // The sample times of n renders: n midpoints of equal slices of the exposure (1.0025,
+  // 1.0075, ...), each snapped to the physics step (moves it by at most half a step).
+  p.exposure_s = 0.02;
+  const std::vector<double> t = exposure_sample_times(p, 1.0, 0.001, 4);
+  ASSERT_EQ(t.size(), 4u);
+  for (int i = 0; i < 4; ++i) EXPECT_NEAR(t[i], 1.0 + (i + 0.5) * 0.005, 0.0005 + 1e-12) << i;
+}
+
+}  // namespace
+}  // namespace lander::sim

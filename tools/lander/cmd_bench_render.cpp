@@ -1,7 +1,10 @@
-// `lander bench render --json FILE [--frames N] [--backend B] [--msaa N] [--shadows]`
+// `lander bench render --json FILE [--frames N] [--blur-frames N] [--backend B] [--msaa N] [--shadows]`
 // Renders N frames (default 300) of the default scene from the vehicle camera at 1280x720,
-// first plain (MuJoCo render + readPixels + one flip/convert), then with motion blur of 8
-// sub-renders per frame, and writes the median milliseconds per frame.
+// first plain (MuJoCo render + readPixels + one flip/convert, profiled by stage), then the
+// same views through a bare MuJoCo render, then with motion blur of 8 sub-renders per frame;
+// the adaptive blur at hover and at speed against a 64-render reference (--blur-frames views
+// per condition, default 8); the remap of a distorting lens and read noise. Writes the
+// milliseconds per frame.
 #include <chrono>
 #include <iostream>
 
@@ -20,7 +23,7 @@ namespace lander::cli {
 namespace {
 
 int bench_render(const Args& args) {
-  ArgParser a(args, {"json", "frames", "backend", "msaa", "scenario"}, {"shadows"});
+  ArgParser a(args, {"json", "frames", "backend", "msaa", "scenario", "blur-frames"}, {"shadows"});
   if (!a.has("json")) throw UsageError("usage: lander bench render --json FILE [--frames N]");
   const int n = static_cast<int>(a.integer("frames", 300, 1));
   if (n < 1) throw UsageError("--frames must be >= 1");
@@ -119,7 +122,105 @@ int bench_render(const Args& args) {
     noisy.finish(i, world.X_WC());
     noise_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   }
+  // Adaptive motion blur (camera.blur_px_per_render) against a 64-render reference, at hover
+  // and at speed, with motion_blur.yaml's 20 ms exposure: renders per frame, cost, and how far
+  // the frame is from the reference (grey levels).
+  nlohmann::ordered_json adaptive = nlohmann::ordered_json::array();
+  {
+    struct Condition {
+      const char* name;
+      double height_m;
+      Eigen::Vector3d v_W, omega_B;
+      double cart_mps;
+    };
+    const std::vector<Condition> conds = {
+        {"hover_5m", 5.0, {0.05, 0.0, 0.0}, {0.0, 0.0, 0.02}, 0.0},
+        {"follow_5m", 5.0, {0.5, 0.0, -0.3}, {0.05, 0.05, 0.1}, 0.5},
+        {"full_speed_5m", 5.0, {3.0, 0.5, -0.5}, {0.3, 0.3, 0.5}, 1.5},
+        {"full_speed_2m", 2.0, {1.5, 0.0, -0.5}, {0.3, 0.3, 0.5}, 1.5}};
+    sim::CameraParams ap = s.camera;
+    ap.exposure_s = 0.02;
+    ap.blur_samples = 64;
+    ap.blur_px_per_render = 1.0;
+    const int nf = static_cast<int>(a.integer("blur-frames", 8, 1));
+    for (const Condition& c : conds) {
+      // The state at time tau into the exposure: constant velocities from the start pose.
+      auto at = [&](int i, double tau) {
+        const double yaw0 = 0.7 * i;
+        Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+        const Eigen::Matrix3d R0 = Eigen::AngleAxisd(yaw0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+        const Eigen::Vector3d w_W = R0 * c.omega_B;
+        const double ang = w_W.norm() * tau;
+        X.linear() = (ang > 0 ? Eigen::AngleAxisd(ang, w_W.normalized()).toRotationMatrix() : Eigen::Matrix3d::Identity()) * R0;
+        const Eigen::Vector3d cart(2.0 * i + c.cart_mps * tau, 0.0, 0.0);
+        world.set_cart_state(cart, Eigen::Vector3d(c.cart_mps, 0, 0));
+        X.translation() = Eigen::Vector3d(2.0 * i + 0.2, 0.1, 0.8 + c.height_m) + c.v_W * tau;
+        world.set_vehicle_state(X, c.v_W, c.omega_B);
+        world.forward();
+      };
+      std::vector<double> n_used, ms, mean_diff, p999_diff, max_diff, ms_fixed8, mean_diff8, p999_diff8;
+      // Mean, 99.9th percentile and max of |a - ref| over pixels and channels (grey levels).
+      auto compare = [](const cv::Mat& x, const cv::Mat& ref, double* mean, double* p999, double* mx) {
+        cv::Mat diff;
+        cv::absdiff(x, ref, diff);
+        const cv::Mat flat = diff.reshape(1, 1);
+        *mean = cv::mean(flat)[0];
+        cv::minMaxLoc(flat, nullptr, mx);
+        int hist[256] = {0};
+        for (int q = 0; q < flat.cols; ++q) ++hist[flat.at<unsigned char>(0, q)];
+        const double need = 0.999 * flat.cols;
+        double acc = 0;
+        int level = 0;
+        while (level < 255 && (acc += hist[level]) < need) ++level;
+        *p999 = level;
+      };
+      for (int i = 0; i < nf; ++i) {
+        at(i, 0.0);
+        const double motion = sim::image_motion_px(s.camera.intrinsics, sim::exposure_motion(world, s.camera.intrinsics), ap.exposure_s);
+        auto blurred = [&](int n, double* cost_ms) {
+          sim::CameraPipeline pipe(ap, 1);
+          const auto t0 = std::chrono::steady_clock::now();
+          pipe.begin(0.0);
+          for (int k = 0; k < n; ++k) {
+            at(i, (k + 0.5) * ap.exposure_s / n);
+            renderer.render_camera(world.model(), world.data(), world.camera_id(), W, H, img);
+            pipe.add(img);
+          }
+          cv::Mat out = pipe.finish(i, world.X_WC()).bgr;
+          if (cost_ms) *cost_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+          return out;
+        };
+        const int n = sim::blur_renders(ap, motion);
+        double cost = 0, cost8 = 0;
+        const cv::Mat adapt = blurred(n, &cost);
+        const cv::Mat fixed8 = blurred(8, &cost8);
+        const cv::Mat ref = blurred(64, nullptr);
+        double m1, p1, x1, m8, p8, x8;
+        compare(adapt, ref, &m1, &p1, &x1);
+        compare(fixed8, ref, &m8, &p8, &x8);
+        n_used.push_back(n);
+        ms.push_back(cost);
+        ms_fixed8.push_back(cost8);
+        mean_diff.push_back(m1);
+        p999_diff.push_back(p1);
+        max_diff.push_back(x1);
+        mean_diff8.push_back(m8);
+        p999_diff8.push_back(p8);
+      }
+      adaptive.push_back({{"condition", c.name},
+                          {"renders_mean", sim::summarize(n_used).mean},
+                          {"renders_max", sim::summarize(n_used).max},
+                          {"ms_per_frame_mean", sim::summarize(ms).mean},
+                          {"ms_per_frame_fixed8_mean", sim::summarize(ms_fixed8).mean},
+                          {"diff_to_64_mean_dn", sim::summarize(mean_diff).mean},
+                          {"diff_to_64_p999_dn_max", sim::summarize(p999_diff).max},
+                          {"diff_to_64_max_dn", sim::summarize(max_diff).max},
+                          {"fixed8_diff_to_64_mean_dn", sim::summarize(mean_diff8).mean},
+                          {"fixed8_diff_to_64_p999_dn_max", sim::summarize(p999_diff8).max}});
+    }
+  }
   nlohmann::ordered_json j;
+  j["adaptive_blur_20ms"] = adaptive;
   j["read_noise_ms_per_frame_median"] = sim::summarize(noise_ms).median;
   j["read_noise_ms_per_frame_max"] = sim::summarize(noise_ms).max;
   j["ms_per_frame_median"] = sim::summarize(plain).median;
@@ -151,7 +252,7 @@ int bench_render(const Args& args) {
   return kExitOk;
 }
 
-const LanderCommand reg("render", "render --json FILE [--frames N] [--backend auto|egl|osmesa] [--msaa N] [--shadows]",
+const LanderCommand reg("render", "render --json FILE [--frames N] [--blur-frames N] [--backend auto|egl|osmesa] [--msaa N] [--shadows]",
                         Kind::Bench, bench_render);
 
 }  // namespace

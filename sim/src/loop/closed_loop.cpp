@@ -280,6 +280,7 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
   res.overlapped = vision.overlapped();
   res.wall_s = std::chrono::duration<double>(Clock::now() - wall0).count();
   res.frames = camera.frames();
+  res.renders = camera.renders();
   res.outliers_injected = recorder.outliers_injected();
   recorder.finish(outcome, flight, summary);
   if (!o.record_vision.empty()) write_vision_log(o.record_vision, vision_log);

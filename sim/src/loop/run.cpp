@@ -214,6 +214,8 @@ Json run_scenario(const Scenario& s, const RunOptions& o) {
       perf["realtime_factor"] = r.wall_s > 0 ? r.sim_s / r.wall_s : 0.0;
       const double n = std::max(1, r.frames);
       perf["vision_schedule"] = r.overlapped ? "overlapped" : "serial";
+      perf["camera_frames"] = r.frames;
+      perf["renders_per_frame"] = static_cast<double>(r.renders) / std::max(1, r.frames);
       perf["ms_per_camera_frame"] = {{"render", r.render_ms / n},
                                      {"estimator", r.estimator_ms / n},
                                      {"control", r.control_ms / n},

@@ -17,14 +17,81 @@
 namespace lander::sim {
 
 std::vector<double> exposure_sample_times(const CameraParams& p, double t_start_s,
-                                          double physics_dt_s) {
+                                          double physics_dt_s, int n_renders) {
   std::vector<double> t;
-  const int n = p.blur_samples;
+  const int n = n_renders > 0 ? n_renders : p.blur_samples;
   for (int i = 0; i < n; ++i) {
     const double ti = t_start_s + (i + 0.5) * p.exposure_s / n;
     t.push_back(std::round(ti / physics_dt_s) * physics_dt_s);
   }
   return t;
+}
+
+double image_motion_px(const CameraModel& cam, const ExposureMotion& m, double exposure_s) {
+  // The camera's pose at the exposure's end: rotated by w T about its centre, moved by v T.
+  const double T = exposure_s;
+  Eigen::Isometry3d X_end = Eigen::Isometry3d::Identity();
+  const double angle = m.w_W.norm() * T;
+  const Eigen::Matrix3d dR = angle > 0 ? Eigen::AngleAxisd(angle, m.w_W.normalized()).toRotationMatrix()
+                                       : Eigen::Matrix3d::Identity();
+  X_end.linear() = dR * m.X_WC.linear();
+  X_end.translation() = m.X_WC.translation() + m.v_W * T;
+  const double mu = 0.1 * cam.width_px, mv = 0.1 * cam.height_px;
+  auto project = [&](const Eigen::Isometry3d& X_WC, const Eigen::Vector3d& p_W, Eigen::Vector2d& uv) {
+    const Eigen::Vector3d p_C = X_WC.inverse() * p_W;
+    if (p_C.z() <= 1e-3) return false;
+    uv = {cam.fx_px * p_C.x() / p_C.z() + cam.cx_px, cam.fy_px * p_C.y() / p_C.z() + cam.cy_px};
+    return uv.x() >= -mu && uv.x() <= cam.width_px + mu && uv.y() >= -mv && uv.y() <= cam.height_px + mv;
+  };
+  double worst = 0.0;
+  for (std::size_t i = 0; i < m.points_W.size(); ++i) {
+    const Eigen::Vector3d p1 = m.points_W[i] + m.point_velocities_W[i] * T;
+    Eigen::Vector2d a, b;
+    const bool in0 = project(m.X_WC, m.points_W[i], a), in1 = project(X_end, p1, b);
+    // Both ends in front of the camera, at least one of them in the image.
+    const Eigen::Vector3d z0 = m.X_WC.inverse() * m.points_W[i], z1 = X_end.inverse() * p1;
+    if ((in0 || in1) && z0.z() > 1e-3 && z1.z() > 1e-3) worst = std::max(worst, (b - a).norm());
+  }
+  return worst;
+}
+
+ExposureMotion exposure_motion(const World& world, const CameraModel& cam) {
+  ExposureMotion m;
+  m.X_WC = world.X_WC();
+  const Eigen::Isometry3d X_WB = world.X_WB();
+  m.w_W = X_WB.linear() * world.omega_B();
+  m.v_W = world.v_WB() + m.w_W.cross(m.X_WC.translation() - X_WB.translation());
+  // The platform (half-size 0.9 m, models/cart.xml) moving with the cart: x, y and yaw rate.
+  const Eigen::Isometry3d X_WP = world.X_WP();
+  const Eigen::Vector3d q = world.cart_q(), qd = world.cart_qd();
+  const Eigen::Vector3d cart_origin(q.x(), q.y(), X_WP.translation().z());
+  for (const Eigen::Vector2d c : {Eigen::Vector2d(0, 0), Eigen::Vector2d(0.9, 0.9), Eigen::Vector2d(0.9, -0.9),
+                                  Eigen::Vector2d(-0.9, 0.9), Eigen::Vector2d(-0.9, -0.9)}) {
+    const Eigen::Vector3d p = X_WP * Eigen::Vector3d(c.x(), c.y(), 0.0);
+    m.points_W.push_back(p);
+    m.point_velocities_W.push_back(Eigen::Vector3d(qd.x(), qd.y(), 0) +
+                                   Eigen::Vector3d(0, 0, qd.z()).cross(p - cart_origin));
+  }
+  // The ground (z = 0) where the image's centre and corners look, if they look down at it.
+  for (const Eigen::Vector2d uv : {Eigen::Vector2d(cam.cx_px, cam.cy_px), Eigen::Vector2d(0, 0),
+                                   Eigen::Vector2d(cam.width_px, 0), Eigen::Vector2d(0, cam.height_px),
+                                   Eigen::Vector2d(cam.width_px, cam.height_px)}) {
+    const Eigen::Vector3d ray_W =
+        m.X_WC.linear() * Eigen::Vector3d((uv.x() - cam.cx_px) / cam.fx_px, (uv.y() - cam.cy_px) / cam.fy_px, 1.0);
+    if (ray_W.z() >= -1e-6) continue;
+    const double s = -m.X_WC.translation().z() / ray_W.z();
+    if (s <= 0 || s > 1000) continue;
+    m.points_W.push_back(m.X_WC.translation() + s * ray_W);
+    m.point_velocities_W.push_back(Eigen::Vector3d::Zero());
+  }
+  return m;
+}
+
+int blur_renders(const CameraParams& p, double motion_px) {
+  if (p.blur_px_per_render <= 0 || p.blur_samples <= 1) return p.blur_samples;
+  const double n = std::ceil(motion_px / p.blur_px_per_render);
+  if (!(n >= 1)) return 1;  // also NaN
+  return static_cast<int>(std::min<double>(n, p.blur_samples));
 }
 
 namespace {
@@ -198,7 +265,10 @@ std::optional<CameraFrame> CameraRig::advance(double t_s, World& world, Renderer
   if (!exposing_ && t_s + 1e-9 >= next_frame_t_) {
     exposing_ = true;
     pipeline_.begin(t_s);
-    sample_times_ = exposure_sample_times(p, t_s, dt_);
+    const int n = p.blur_samples > 1 && p.blur_px_per_render > 0
+                      ? blur_renders(p, image_motion_px(p.intrinsics, exposure_motion(world, p.intrinsics), p.exposure_s))
+                      : p.blur_samples;
+    sample_times_ = exposure_sample_times(p, t_s, dt_, n);
     next_sample_ = 0;
   }
   if (!exposing_) return std::nullopt;
@@ -207,6 +277,7 @@ std::optional<CameraFrame> CameraRig::advance(double t_s, World& world, Renderer
     renderer.render_camera(world.model(), world.data(), world.camera_id(),
                            pipeline_.render_size().width, pipeline_.render_size().height, render_);
     pipeline_.add(render_);
+    ++renders_;
     if (render_ms) {
       *render_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     }
@@ -216,6 +287,7 @@ std::optional<CameraFrame> CameraRig::advance(double t_s, World& world, Renderer
     return std::nullopt;
   }
   CameraFrame frame = pipeline_.finish(frame_index_, world.X_WC());
+  frame.renders = static_cast<int>(sample_times_.size());
   exposing_ = false;
   ++frame_index_;
   next_frame_t_ += period_;

@@ -22,6 +22,7 @@ struct LoopResult {
   double vision_wait_ms{0.0}; ///< main thread blocked joining the vision worker (overlap)
   bool overlapped{false};     ///< the vision worker ran (RunOptions::vision_schedule)
   int frames{0};
+  long renders{0};            ///< camera renders, blur sub-renders included
   int outliers_injected{0};
 };
 

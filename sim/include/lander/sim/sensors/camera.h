@@ -34,7 +34,11 @@ struct CameraParams {
   CameraModel intrinsics;        ///< K and distortion (OpenCV convention)
   double rate_hz{30.0};          ///< frame rate (Hz)
   double exposure_s{0.002};      ///< exposure time (s); YAML exposure_ms
-  int blur_samples{1};           ///< renders averaged over the exposure (1 = no blur)
+  int blur_samples{1};           ///< renders averaged over the exposure (1 = no blur); with
+                                 ///< blur_px_per_render > 0 the most renders a frame may take
+  double blur_px_per_render{1.0};///< adaptive blur: one render per this many pixels of the
+                                 ///< largest image motion during the exposure (capped by
+                                 ///< blur_samples); 0 = always blur_samples renders
   double read_noise_dn{0.0};     ///< Gaussian read noise std (8-bit grey levels)
   double gain{1.0};              ///< exposure x gain relative to nominal: scales the image
                                  ///< (clipped at white); < 1 darker, > 1 brighter
@@ -60,6 +64,8 @@ struct CameraParams {
     require(exposure_s >= 0 && exposure_s < 1.0 / rate_hz, "exposure_ms",
             "must be >= 0 and shorter than the frame period");
     require(blur_samples >= 1 && blur_samples <= 64, "blur_samples", "must be in [1, 64]");
+    require(blur_px_per_render == 0 || (blur_px_per_render >= 0.1 && blur_px_per_render <= 100),
+            "blur_px_per_render", "must be 0 (fixed count) or in [0.1, 100] px");
     require(read_noise_dn >= 0 && read_noise_dn <= 50, "read_noise_dn", "must be in [0, 50]");
   }
 };
@@ -70,6 +76,7 @@ void visit_fields(V& v, CameraParams& p) {
   v("rate_hz", p.rate_hz);
   v("exposure_ms", p.exposure_s, 1e-3);
   v("blur_samples", p.blur_samples);
+  v("blur_px_per_render", p.blur_px_per_render);
   v("read_noise_dn", p.read_noise_dn);
   v("gain", p.gain);
   v("mount_error_deg", p.mount_error_rad, M_PI / 180.0);
@@ -81,17 +88,39 @@ struct CameraFrame {
   int index{0};
   cv::Mat bgr;                         ///< CV_8UC3, row 0 = image top
   ExposureInterval exposure;           ///< sim time (s)
+  int renders{1};                      ///< renders averaged into it (motion blur)
   Eigen::Isometry3d X_WC_true{Eigen::Isometry3d::Identity()};  ///< at mid-exposure (truth)
 };
 
 // Writes `frame` as `dir`/frame_NNNNN.png (lossless, atomically). Throws OutputError.
 void save_frame_png(const std::string& dir, const CameraFrame& frame);
 
-// Sample times of the renders that make up one exposure: blur_samples instants spread evenly
-// over [t_start, t_start + exposure] (midpoints of equal slices), each snapped to a multiple
-// of the physics step so that it falls on a real physics state.
+// Sample times of the renders that make up one exposure: n instants spread evenly over
+// [t_start, t_start + exposure] (midpoints of equal slices), each snapped to a multiple of the
+// physics step so that it falls on a real physics state. n = p.blur_samples when n_renders is
+// 0.
 std::vector<double> exposure_sample_times(const CameraParams& p, double t_start_s,
-                                          double physics_dt_s);
+                                          double physics_dt_s, int n_renders = 0);
+
+// The motion the camera sees during an exposure, for the adaptive blur: the camera's pose and
+// velocity (linear v_W of its centre, angular w_W, both in W) and scene points with their
+// velocities (W), all held constant over the exposure.
+struct ExposureMotion {
+  Eigen::Isometry3d X_WC{Eigen::Isometry3d::Identity()};  ///< OpenCV convention (z forward)
+  Eigen::Vector3d v_W{Eigen::Vector3d::Zero()}, w_W{Eigen::Vector3d::Zero()};
+  std::vector<Eigen::Vector3d> points_W, point_velocities_W;
+};
+// Largest displacement (px) over `exposure_s` of the points that are in front of the camera
+// and inside the image (with a margin of a tenth of its size) at the exposure's start or end,
+// with the camera's pinhole projection (fx, fy, cx, cy). 0 when none is.
+double image_motion_px(const CameraModel& cam, const ExposureMotion& m, double exposure_s);
+// The scene points of the world whose image motion sets the blur: the landing platform's
+// centre and corners (moving with the cart) and the ground where the image's centre and
+// corners look (still), with the camera's motion now.
+ExposureMotion exposure_motion(const World& world, const CameraModel& cam);
+// Renders for one exposure: blur_samples without adaptive blur, else one per
+// blur_px_per_render pixels of image motion, at least 1, at most blur_samples.
+int blur_renders(const CameraParams& p, double motion_px);
 
 // Size of the centred pinhole render (focal length fy) that the camera's image is remapped
 // from: the camera's own size without distortion, larger when barrel distortion or an
@@ -145,6 +174,12 @@ class CameraRig {
   bool exposing_ = false;
   std::vector<double> sample_times_;
   std::size_t next_sample_ = 0;
+  long renders_ = 0;
+
+ public:
+  long renders() const { return renders_; }  ///< renders so far (blur sub-renders included)
+
+ private:
   cv::Mat render_;
 };
 
