@@ -1,7 +1,9 @@
-// `lander bench loop --json FILE [--scenario FILE] [--duration S]`
+// `lander bench loop --json FILE [--scenario FILE] [--duration S] [--vision-schedule S]`
 // Runs a closed-loop scenario (default scenarios/default.yaml, no video) and writes its
-// speed: simulated and wall seconds, real-time factor, milliseconds per camera frame spent
-// in rendering, the estimator, control (sensors, filters, controller) and physics.
+// speed: simulated and wall seconds, real-time factor, the vision schedule that ran (serial
+// or overlapped: the estimator on a worker beside the next frame's render), renders per
+// frame, milliseconds per camera frame spent in rendering, the estimator, control (sensors,
+// filters, controller), physics and waiting for the vision worker.
 #include <fstream>
 #include <iostream>
 
@@ -13,13 +15,14 @@ namespace lander::cli {
 namespace {
 
 int bench_loop(const Args& args) {
-  ArgParser a(args, {"json", "scenario", "duration", "out"}, {});
+  ArgParser a(args, {"json", "scenario", "duration", "out", "vision-schedule"}, {});
   if (!a.has("json")) throw UsageError("usage: lander bench loop --json FILE [--scenario FILE]");
   sim::Scenario s = sim::Scenario::load(a.value("scenario", std::string(LANDER_SCENARIOS_DIR) + "/default.yaml"));
   s.duration_s = a.number("duration", s.duration_s, 0.1);
   s.validate();
   sim::RunOptions o;
   o.out_dir = a.value("out", "/tmp/lander_bench_loop");
+  o.vision_schedule = a.choice("vision-schedule", "auto", {"auto", "serial", "overlap"});
   const nlohmann::ordered_json summary = sim::run_scenario(s, o);
   std::ifstream perf_file(o.out_dir + "/performance.json");
   const nlohmann::ordered_json perf = nlohmann::ordered_json::parse(perf_file);
@@ -29,7 +32,7 @@ int bench_loop(const Args& args) {
   return kExitOk;
 }
 
-const LanderCommand reg("loop", "loop --json FILE [--scenario FILE] [--duration S]", Kind::Bench,
+const LanderCommand reg("loop", "loop --json FILE [--scenario FILE] [--duration S] [--vision-schedule auto|serial|overlap]", Kind::Bench,
                         bench_loop);
 
 }  // namespace

@@ -30,10 +30,7 @@ int run(const Args& args) {
   o.replay_vision = a.value("replay-vision");
   o.save_frames_dir = a.value("save-frames");
   // The estimator on a worker thread or in line: same outputs bit for bit (README, Performance).
-  o.vision_schedule = a.value("vision-schedule", std::string("auto"));
-  if (o.vision_schedule != "auto" && o.vision_schedule != "serial" && o.vision_schedule != "overlap") {
-    throw UsageError("--vision-schedule must be auto, serial or overlap (got '" + o.vision_schedule + "')");
-  }
+  o.vision_schedule = a.choice("vision-schedule", "auto", {"auto", "serial", "overlap"});
   const nlohmann::ordered_json summary = sim::run_scenario(s, o);
   const std::string outcome = summary.at("outcome").get<std::string>();
   std::cout << "lander run: " << s.name << ": " << outcome << "\noutputs in " << o.out_dir

@@ -98,6 +98,17 @@ double ArgParser::number(const std::string& name, double fallback, double min) c
                               });
 }
 
+std::string ArgParser::choice(const std::string& name, const std::string& fallback,
+                              const std::vector<std::string>& allowed) const {
+  const std::string v = value(name, fallback);
+  for (const std::string& a : allowed) {
+    if (v == a) return v;
+  }
+  std::string list;
+  for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
+  throw UsageError("--" + name + " must be one of " + list + " (got '" + v + "')");
+}
+
 namespace {
 void print_help(std::ostream& out) {
   out << "usage: lander COMMAND [ARGS]\n\ncommands:\n";
