@@ -10,6 +10,7 @@
 // recorder judges and logs. The flight stack is built from the scenario's `flight:` section
 // only and never sees the plant's parameters or the truth.
 #include <chrono>
+#include <ctime>
 #include <future>
 #include <iostream>
 
@@ -34,6 +35,12 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+// CPU time of the calling thread (ms): what `lander bench estimator` reports for the detector.
+double thread_cpu_ms() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
 }
 
 // Scenario fault keys that act on the sensors' physics (seed 004's robustness tests).
@@ -89,7 +96,9 @@ struct VisionJob {
   bool run_path{false};
   RingDetection det;
   std::optional<PathObservation> path;
-  double proc_ms{0};
+  double proc_ms{0};                    ///< wall time of the whole stage
+  double detect_ms{0}, path_ms{0};      ///< wall time of the ring detector, of the path stage
+  double detect_cpu_ms{0};              ///< the ring detector's thread CPU time
 };
 
 // The estimator's vision stage of the loop. The detector (and the path stage) depend only on
@@ -138,8 +147,15 @@ class VisionStage {
  private:
   void run(VisionJob& j) {
     const auto t0 = Clock::now();
+    const double c0 = thread_cpu_ms();
     j.det = flight_.detect(j.frame.bgr);
-    if (j.run_path) j.path = flight_.detect_path(j.frame.bgr, j.frame.exposure.mid());
+    j.detect_cpu_ms = thread_cpu_ms() - c0;
+    j.detect_ms = ms_since(t0);
+    if (j.run_path) {
+      const auto t1 = Clock::now();
+      j.path = flight_.detect_path(j.frame.bgr, j.frame.exposure.mid());
+      j.path_ms = ms_since(t1);
+    }
     j.proc_ms = ms_since(t0);
   }
 
@@ -193,6 +209,9 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
   auto finish_vision = [&]() {
     VisionJob j = vision.take(&res.vision_wait_ms);
     res.estimator_ms += j.proc_ms;
+    res.detector_ms += j.detect_ms;
+    res.detector_cpu_ms += j.detect_cpu_ms;
+    res.path_stage_ms += j.path_ms;
     const double t_mid = j.frame.exposure.mid();
     if (outliers.apply(t_mid, j.det)) recorder.count_outlier_injected();
     flight::VisionResult vr = flight.vision_result(j.det, t_mid);

@@ -218,6 +218,9 @@ Json run_scenario(const Scenario& s, const RunOptions& o) {
       perf["renders_per_frame"] = static_cast<double>(r.renders) / std::max(1, r.frames);
       perf["ms_per_camera_frame"] = {{"render", r.render_ms / n},
                                      {"estimator", r.estimator_ms / n},
+                                     {"estimator_ring_detector", r.detector_ms / n},
+                                     {"estimator_ring_detector_thread_cpu", r.detector_cpu_ms / n},
+                                     {"estimator_path_stage", r.path_stage_ms / n},
                                      {"control", r.control_ms / n},
                                      {"physics", r.physics_ms / n},
                                      {"vision_wait", r.vision_wait_ms / n}};

@@ -46,6 +46,7 @@ std::mutex g_mutex;
 struct GlContext::Impl {
   GlBackend backend = GlBackend::Auto;
   std::string renderer;
+  std::string platform;  // EGL: "device" (a GPU) or "surfaceless" (Mesa)
   void* lib = nullptr;
   // EGL
   EGLDisplay display = EGL_NO_DISPLAY;
@@ -70,8 +71,10 @@ struct GlContext::Impl {
   }
 };
 
-// EGL on Mesa's surfaceless platform: no window system, no pbuffer; MuJoCo renders into its
-// own offscreen framebuffer object.
+// EGL: on a hardware device when one is present (EGL_EXT_platform_device: an NVIDIA or other
+// GPU's EGL device; Mesa's software device, EGL_MESA_device_software, is not one), else on
+// Mesa's surfaceless platform. No window system, no pbuffer; MuJoCo renders into its own
+// offscreen framebuffer object.
 std::string GlContext::Impl::try_egl() {
   lib = dlopen("libEGL.so.1", RTLD_NOW | RTLD_GLOBAL);
   if (!lib) return std::string("cannot load libEGL.so.1: ") + dlerror();
@@ -90,11 +93,32 @@ std::string GlContext::Impl::try_egl() {
       !makeCurrent || !getError) {
     return "libEGL lacks eglGetPlatformDisplayEXT or core entry points";
   }
-  display = getPlatformDisplay(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
-  if (display == EGL_NO_DISPLAY) return "no EGL surfaceless display";
   EGLint major = 0, minor = 0;
-  if (!initialize(display, &major, &minor)) {
-    return "eglInitialize failed (error 0x" + std::to_string(getError()) + ")";
+  auto queryDevices = reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(getProc("eglQueryDevicesEXT"));
+  auto queryDeviceString =
+      reinterpret_cast<PFNEGLQUERYDEVICESTRINGEXTPROC>(getProc("eglQueryDeviceStringEXT"));
+  if (queryDevices && queryDeviceString) {
+    EGLDeviceEXT devices[16];
+    EGLint n_devices = 0;
+    if (queryDevices(16, devices, &n_devices)) {
+      for (EGLint i = 0; i < n_devices && display == EGL_NO_DISPLAY; ++i) {
+        const char* ext = queryDeviceString(devices[i], EGL_EXTENSIONS);
+        if (ext && std::strstr(ext, "EGL_MESA_device_software")) continue;  // llvmpipe
+        EGLDisplay d = getPlatformDisplay(EGL_PLATFORM_DEVICE_EXT, devices[i], nullptr);
+        if (d != EGL_NO_DISPLAY && initialize(d, &major, &minor)) {
+          display = d;
+          platform = "device";
+        }
+      }
+    }
+  }
+  if (display == EGL_NO_DISPLAY) {
+    display = getPlatformDisplay(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
+    if (display == EGL_NO_DISPLAY) return "no EGL surfaceless display";
+    if (!initialize(display, &major, &minor)) {
+      return "eglInitialize failed (error 0x" + std::to_string(getError()) + ")";
+    }
+    platform = "surfaceless";
   }
   const EGLint config_attribs[] = {EGL_RED_SIZE, 8, EGL_GREEN_SIZE, 8, EGL_BLUE_SIZE, 8,
                                    EGL_ALPHA_SIZE, 8, EGL_DEPTH_SIZE, 24, EGL_STENCIL_SIZE, 8,
@@ -195,7 +219,8 @@ GlBackend GlContext::backend() const { return impl_->backend; }
 
 
 std::string GlContext::description() const {
-  return to_string(impl_->backend) + " (" + impl_->renderer + ")";
+  const std::string platform = impl_->platform.empty() ? "" : " " + impl_->platform;
+  return to_string(impl_->backend) + platform + " (" + impl_->renderer + ")";
 }
 
 }  // namespace lander::sim

@@ -16,7 +16,10 @@ struct LoopResult {
   double sim_s{0.0};
   double wall_s{0.0};
   double render_ms{0.0};     ///< camera renders (incl. blur sub-frames)
-  double estimator_ms{0.0};  ///< ring detector on each frame
+  double estimator_ms{0.0};  ///< vision stage on each frame (ring detector + path stage)
+  double detector_ms{0.0};   ///< of which the ring detector (wall)
+  double detector_cpu_ms{0.0};  ///< the ring detector's thread CPU time
+  double path_stage_ms{0.0}; ///< of which the path stage (seed 003)
   double control_ms{0.0};    ///< sensors, navigation, altitude fusion, controller
   double physics_ms{0.0};    ///< motors, ground-effect rays, wind, mj_step
   double vision_wait_ms{0.0}; ///< main thread blocked joining the vision worker (overlap)
