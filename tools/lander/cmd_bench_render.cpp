@@ -6,6 +6,7 @@
 // per condition, default 8); the remap of a distorting lens and read noise. Writes the
 // milliseconds per frame.
 #include <chrono>
+#include <functional>
 #include <iostream>
 
 #include <opencv2/imgproc.hpp>
@@ -55,24 +56,37 @@ int bench_render(const Args& args) {
   cv::Mat img;
   place(0, 0);
   renderer.render_camera(world.model(), world.data(), world.camera_id(), W, H, img);  // warm-up
-  std::vector<double> plain, blur, bare;
+  // Milliseconds of `render(i)` at each of the n views.
+  auto time_views = [&](const std::function<void(int)>& render) {
+    std::vector<double> ms;
+    for (int i = 0; i < n; ++i) {
+      place(i, 0);
+      const auto t0 = std::chrono::steady_clock::now();
+      render(i);
+      ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    }
+    return ms;
+  };
+  auto ours = [&](int) { renderer.render_camera(world.model(), world.data(), world.camera_id(), W, H, img); };
   renderer.reset_times();
-  for (int i = 0; i < n; ++i) {
-    place(i, 0);
-    const auto t0 = std::chrono::steady_clock::now();
-    renderer.render_camera(world.model(), world.data(), world.camera_id(), W, H, img);
-    plain.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-  }
+  const std::vector<double> plain = time_views(ours);
   const sim::RenderTimes prof = renderer.times();
+  // What parts of the scene cost: the same views with one of MuJoCo's render flags changed.
+  nlohmann::ordered_json variants = nlohmann::ordered_json::object();
+  for (const auto& [name, flag] : {std::pair<const char*, int>{"no_skybox", mjRND_SKYBOX},
+                                   {"no_haze", mjRND_HAZE}, {"no_cull_face", mjRND_CULL_FACE}}) {
+    const mjtByte saved = renderer.scene_flag(flag);
+    renderer.scene_flag(flag) = !saved;
+    variants[name] = sim::summarize(time_views(ours)).median;
+    renderer.scene_flag(flag) = saved;
+  }
   // The same views through a bare MuJoCo render (default scene flags and options, readPixels
   // into RGB, no conversion): what the camera path costs above MuJoCo itself.
   std::vector<unsigned char> rgb;
-  for (int i = 0; i < n; ++i) {
-    place(i, 0);
-    const auto t0 = std::chrono::steady_clock::now();
+  const std::vector<double> bare = time_views([&](int) {
     renderer.render_camera_bare(world.model(), world.data(), world.camera_id(), W, H, rgb);
-    bare.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-  }
+  });
+  std::vector<double> blur;
   sim::CameraParams cp = s.camera;
   cp.blur_samples = 8;
   cp.exposure_s = 0.02;
@@ -231,6 +245,7 @@ int bench_render(const Args& args) {
                                     {"draw", prof.draw_ms / nr},
                                     {"read_pixels", prof.read_ms / nr},
                                     {"flip_convert", prof.convert_ms / nr}};
+  j["variants_ms_per_frame_median"] = variants;
   j["bare_mujoco_ms_per_frame_median"] = sim::summarize(bare).median;
   j["bare_mujoco_ms_per_frame_mean"] = sim::summarize(bare).mean;
   j["ours_over_bare_median"] = sim::summarize(plain).median / sim::summarize(bare).median;

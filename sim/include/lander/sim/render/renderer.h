@@ -62,6 +62,8 @@ class Renderer {
 
   std::string backend_description() const { return gl_->description(); }
   const RenderTimes& times() const { return times_; }
+  // MuJoCo's scene render flags (mjRND_*), for `lander bench render`'s variants.
+  mjtByte& scene_flag(int flag) { return scene_.flags[flag]; }
   void reset_times() { times_ = RenderTimes{}; }
   // MuJoCo's own render of the same camera with its default flags and no conversion
   // (mjv_updateScene + mjr_render + mjr_readPixels into `rgb`, rows bottom-up): what a bare
