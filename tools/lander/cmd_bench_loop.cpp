@@ -3,7 +3,8 @@
 // speed: simulated and wall seconds, real-time factor, the vision schedule that ran (serial
 // or overlapped: the estimator on a worker beside the next frame's render), renders per
 // frame, milliseconds per camera frame spent in rendering, the estimator, control (sensors,
-// filters, controller), physics and waiting for the vision worker.
+// filters, controller), physics and waiting for the vision worker. --frames-csv F: the vision
+// stage's cost and result per camera frame.
 #include <fstream>
 #include <iostream>
 
@@ -15,7 +16,7 @@ namespace lander::cli {
 namespace {
 
 int bench_loop(const Args& args) {
-  ArgParser a(args, {"json", "scenario", "duration", "out", "vision-schedule"}, {});
+  ArgParser a(args, {"json", "scenario", "duration", "out", "vision-schedule", "frames-csv"}, {});
   if (!a.has("json")) throw UsageError("usage: lander bench loop --json FILE [--scenario FILE]");
   sim::Scenario s = sim::Scenario::load(a.value("scenario", std::string(LANDER_SCENARIOS_DIR) + "/default.yaml"));
   s.duration_s = a.number("duration", s.duration_s, 0.1);
@@ -23,6 +24,7 @@ int bench_loop(const Args& args) {
   sim::RunOptions o;
   o.out_dir = a.value("out", "/tmp/lander_bench_loop");
   o.vision_schedule = a.choice("vision-schedule", "auto", {"auto", "serial", "overlap"});
+  o.vision_profile_csv = a.value("frames-csv");
   const nlohmann::ordered_json summary = sim::run_scenario(s, o);
   std::ifstream perf_file(o.out_dir + "/performance.json");
   const nlohmann::ordered_json perf = nlohmann::ordered_json::parse(perf_file);
@@ -32,7 +34,7 @@ int bench_loop(const Args& args) {
   return kExitOk;
 }
 
-const LanderCommand reg("loop", "loop --json FILE [--scenario FILE] [--duration S] [--vision-schedule auto|serial|overlap]", Kind::Bench,
+const LanderCommand reg("loop", "loop --json FILE [--scenario FILE] [--duration S] [--vision-schedule auto|serial|overlap] [--frames-csv F]", Kind::Bench,
                         bench_loop);
 
 }  // namespace

@@ -204,6 +204,12 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
 
   LoopResult res;
   VisionStage vision(flight, !replay && overlap_vision(s, o));
+  std::unique_ptr<CsvWriter> profile;
+  if (!o.vision_profile_csv.empty()) {
+    profile = std::make_unique<CsvWriter>(
+        o.vision_profile_csv, std::vector<std::string>{"frame", "t_s", "height_m", "detected", "status", "tracking_roi",
+                                                       "code_searched", "rings", "detector_ms", "detector_cpu_ms", "path_ms"});
+  }
   // A finished detection, in frame order on the main thread: outlier hook, the result to
   // deliver, the recorder, the delivery queue.
   auto finish_vision = [&]() {
@@ -212,6 +218,13 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
     res.detector_ms += j.detect_ms;
     res.detector_cpu_ms += j.detect_cpu_ms;
     res.path_stage_ms += j.path_ms;
+    if (profile) {
+      profile->integer(j.frame.index).num(j.frame.exposure.mid(), 4).num(j.capture.z_mid_m - j.capture.platform_z_m, 3);
+      profile->integer(j.det.detected ? 1 : 0).text(to_string(j.det.status)).integer(j.det.used_roi ? 1 : 0);
+      profile->integer(j.det.code_searched ? 1 : 0).integer(static_cast<long long>(j.det.centres.size()));
+      profile->num(j.detect_ms, 3).num(j.detect_cpu_ms, 3).num(j.path_ms, 3);
+      profile->end_row();
+    }
     const double t_mid = j.frame.exposure.mid();
     if (outliers.apply(t_mid, j.det)) recorder.count_outlier_injected();
     flight::VisionResult vr = flight.vision_result(j.det, t_mid);
@@ -302,6 +315,7 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
   res.renders = camera.renders();
   res.outliers_injected = recorder.outliers_injected();
   recorder.finish(outcome, flight, summary);
+  if (profile) profile->commit();
   if (!o.record_vision.empty()) write_vision_log(o.record_vision, vision_log);
   return res;
 }

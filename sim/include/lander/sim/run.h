@@ -35,6 +35,10 @@ struct RunOptions {
   // and not measured; serial otherwise. serial: detect at the exposure end, in line. overlap:
   // always the worker. All three give the same outputs bit for bit (a test checks).
   std::string vision_schedule{"auto"};
+  // When set: one row per camera frame with the vision stage's cost and what it found
+  // (frame, t, height, detected, status, tracking ROI used, code searched, ring detector wall
+  // and CPU ms, path stage ms), for `lander bench loop --frames-csv`.
+  std::string vision_profile_csv;
 };
 
 // Checks everything that can be checked before any output is written: the scenario, the
