@@ -163,7 +163,7 @@ auto timed(F&& f, double& ms) {
 // Metric accumulator for one method and one group of frames.
 struct Stats {
   int frames = 0, detected = 0, empty = 0, false_pos = 0;
-  std::vector<double> centre_err, reproj, pos, rot, ms, ms_tracking;
+  std::vector<double> centre_err, reproj, pos, rot, ms, ms_tracking, ms_empty;
 
   Json json(bool with_tracking) const {
     Json j = Json::object();
@@ -177,6 +177,7 @@ struct Stats {
     j["rot_err_deg_mean"] = summarize(rot).mean;
     j["ms_per_frame_median"] = summarize(ms).median;
     if (with_tracking) j["ms_per_frame_median_tracking"] = summarize(ms_tracking).median;
+    if (with_tracking) j["ms_per_frame_median_empty"] = summarize(ms_empty).median;
     j["frames"] = frames;
     j["detected"] = detected;
     j["empty_frames"] = empty;
@@ -370,10 +371,13 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
   for (int i = 0; i < p.empty_frames; ++i) {
     const double alt = p.altitudes_m[i % p.altitudes_m.size()];
     const Eigen::Isometry3d X_WC = empty_pose(alt, rng);
-    const RingDetection d = ours.detect(render(X_WC, MarkerKind::Rings, 0.0));
+    const cv::Mat frame = render(X_WC, MarkerKind::Rings, 0.0);
+    double ms_empty = 0.0;
+    const RingDetection d = timed([&] { return ours.detect(frame); }, ms_empty);
     s_ours.add_empty(alt, [&](Stats& s) {
       ++s.empty;
       s.false_pos += d.detected;
+      s.ms_empty.push_back(ms_empty);
     });
     const bool tag = apriltag.detect(render(X_WC, MarkerKind::AprilTag, 0.0), cam, g).detected;
     s_tag.add_empty(alt, [&](Stats& s) {
@@ -542,7 +546,9 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
       };
       cv::Mat img = rings.clone();
       apply_shadow_band(img, cam, X_CP, band);
-      fp(sh[0][li], ours.detect(img).detected);
+      double ms_empty = 0.0;
+      fp(sh[0][li], timed([&] { return ours.detect(img); }, ms_empty).detected);
+      sh[0][li].empty.ms_empty.push_back(ms_empty);
       img = tag.clone();
       apply_shadow_band(img, cam, X_CP, band);
       fp(sh[1][li], apriltag.detect(img, cam, g).detected);
@@ -574,6 +580,7 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
         e["false_positives"] = G.empty.false_pos;
         e["false_positive_rate"] =
             G.empty.empty ? static_cast<double>(G.empty.false_pos) / G.empty.empty : kNaN;
+        if (m == 0) e["ms_per_frame_median"] = summarize(G.empty.ms_empty).median;
         jl["empty"] = e;
         jm[light_key(p.shadow_lights[li])] = jl;
       }

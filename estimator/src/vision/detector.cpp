@@ -473,7 +473,24 @@ bool search_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& 
   if (!p.shadow_pass) return found;
   RingDetection ds;
   std::vector<EllipseCandidate> cs;
-  const bool ok = run_region(grey, roi, cam, target, p, ds, cs, true);
+  bool ok = run_region(grey, roi, cam, target, p, ds, cs, true);
+  // A shadow-pass pose must fit its edge points as a clean pose does (0.02-0.1 px RMS on the
+  // rendered frames): an ellipse the shadow still biases (the central ring's inner circle,
+  // whose code cells hide the shadow's edge) pulled one pose 59 deg off at 10 m with 0.79 px.
+  constexpr double kShadowMaxEdgeResidualPx = 0.5;
+  if (ok && ds.edge_rms_px > kShadowMaxEdgeResidualPx) {
+    ok = false;
+    ds.detected = false;
+    ds.status = VisionStatus::PoseFailed;
+    ds.reason = "conic fit residual " + std::to_string(ds.edge_rms_px) + " px above the shadow "
+                "pass's " + std::to_string(kShadowMaxEdgeResidualPx) + " px";
+  }
+  // Both passes gave a pose: the one that reprojects the ring centres better.
+  if (found && ok && ds.reproj_err_px > d.reproj_err_px) {
+    d.reason += "; a shadow's edge crosses its ellipses; the shadow pass's pose reprojects "
+                "worse (" + std::to_string(ds.reproj_err_px) + " px), not used";
+    return true;
+  }
   if (found && !ok) {
     d.reason += "; a shadow's edge crosses its ellipses, the shadow pass found no pose: " + ds.reason;
     return true;

@@ -108,7 +108,8 @@ Eigen::Isometry3d bench_camera_pose_P(double altitude_m, double tilt_deg, double
 // the true projections), reproj_err_px_mean and reproj_err_px_var (eq. 30 as a per-frame RMS),
 // pos_err_m_mean, rot_err_deg_mean, ms_per_frame_median (thread CPU time of one detection,
 // one thread, so a loaded machine does not inflate it), frames, empty_frames;
-// plus `ours.overall.ms_per_frame_median_tracking`, and `config`.
+// plus `ours.overall.ms_per_frame_median_tracking` and `ours.overall.ms_per_frame_median_empty`
+// (target-free frames), and `config`.
 // With params.shadow_sweep, `shadows` holds the shadow condition: for each method (`ours`,
 // `apriltag`, `aruco`, `aruco.subpix`) and each light level (`light_0.2`, ...), the metrics
 // over frames with the whole target in view (`in_view`: all ring sets and the marker's
