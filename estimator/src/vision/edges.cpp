@@ -26,6 +26,8 @@ inline bool sample(const cv::Mat& img, double x, double y, double& out) {
 
 // Minimum grey-level swing along a normal profile for an edge point to count.
 constexpr double kMinEdgeContrast = 12.0;
+// Grey-level spread below which a set of plateau values is taken as one level (noise).
+constexpr double kMinNoiseGrey = 2.0;
 // Profile step along the normal (px): fine enough that linear interpolation of the
 // mid-level crossing adds far less than 0.01 px for the blurred edges seen here.
 constexpr double kProfileStepPx = 0.25;
@@ -43,9 +45,18 @@ constexpr double kProfileStepPx = 0.25;
 // ellipse, not of each profile: where the annulus or the hole is only a few pixels across
 // (far range, strong tilt), a single profile never reaches the full dark or light level and
 // its own mid-level would sit outside the true edge (a blurred thin bar looks wider).
+//
+// Shadows (split_light): where a hard shadow crosses the ellipse, the profiles see two
+// illuminations, and one level half-way between the lit white and the shadowed black crosses
+// no shadowed profile (at 20 % light the shadowed white is darker than that level). Then the
+// profiles are split by their brightest value into a lit and a shadowed group at the largest
+// gap of the sorted brightest values (when the groups differ by more than shadow_split_ratio),
+// and each group gets its own mid-level. Without such a gap (no shadow; or the gradual change
+// of the brightest value along a thin, tilted annulus) there is one group, as above.
 std::vector<Eigen::Vector2d> edge_points(const cv::Mat& img, const cv::Point2f& off,
                                          const EllipseParams& e, double search_px,
-                                         const VisionParams& p) {
+                                         const VisionParams& p, bool split_light,
+                                         bool* two_lights = nullptr) {
   std::vector<Eigen::Vector2d> pts;
   const int n = p.edge_samples;
   pts.reserve(n);
@@ -55,6 +66,7 @@ std::vector<Eigen::Vector2d> edge_points(const cv::Mat& img, const cv::Point2f& 
   const int m = static_cast<int>(std::round(2 * L / kProfileStepPx)) + 1;
   std::vector<double> prof(static_cast<std::size_t>(n) * m);
   std::vector<char> valid(n, 0);
+  std::vector<double> plo(n, 0.0), phi(n, 0.0);
   std::vector<Eigen::Vector2d> base(n), normal(n);
   const double ca = std::cos(e.angle_rad), sa = std::sin(e.angle_rad);
   double glo = 1e9, ghi = -1e9;
@@ -78,13 +90,140 @@ std::vector<Eigen::Vector2d> edge_points(const cv::Mat& img, const cv::Point2f& 
       hi = std::max(hi, pr[j]);
     }
     if (!ok || hi - lo < kMinEdgeContrast) continue;
+    if (split_light) {
+      // This edge's own dark and light values: from the profile's middle, strictly downhill
+      // and strictly uphill. A further edge within reach of the profile (a shadow's edge a
+      // pixel or two beyond the ring's) lies past a plateau and is not reached.
+      const int jc = m / 2;
+      const int up = pr[std::min(m - 1, jc + 2)] >= pr[std::max(0, jc - 2)] ? 1 : -1;
+      int j = jc;
+      while (j + up >= 0 && j + up < m && pr[j + up] > pr[j]) j += up;
+      hi = pr[j];
+      j = jc;
+      while (j - up >= 0 && j - up < m && pr[j - up] < pr[j]) j -= up;
+      lo = pr[j];
+      if (hi - lo < kMinEdgeContrast) continue;
+    }
     valid[k] = 1;
+    plo[k] = lo;
+    phi[k] = hi;
     glo = std::min(glo, lo);
     ghi = std::max(ghi, hi);
   }
   const double level = 0.5 * (glo + ghi);
+  // Shadow pass: one or two illuminations. The profiles' brightest values are split in two
+  // classes (Otsu on their logarithm); if the classes' medians differ by shadow_split_ratio
+  // or more, a shadow's edge crosses the ellipse and each class is a group with its own
+  // level; otherwise all profiles form one group. Within a group, a profile whose darkest or
+  // brightest value lies beyond 3 robust sigmas (MAD) of the group's median is not used: it
+  // reaches a shadow's edge just beyond the ring's, or crosses it (the gradual spread along
+  // a thin tilted annulus stays within that band). Nor are the profiles next to a change of
+  // group, nor a group of fewer than kMinGroup profiles. Group levels: half-way between the
+  // darkest and the brightest value of the group's profiles in use.
+  // group: 0 one illumination, 1 and 2 the two illuminations, -1 not used.
+  constexpr int kMinGroup = 4;
+  std::vector<int> group(n, 0);
+  double level_group[3] = {level, level, level};
+  double split_at = -1.0;
+  {
+    std::vector<double> lh;  // log of the brightest values, sorted
+    for (int k = 0; k < n; ++k) {
+      if (valid[k]) lh.push_back(std::log(std::max(phi[k], 1.0)));
+    }
+    std::sort(lh.begin(), lh.end());
+    const int nv = static_cast<int>(lh.size());
+    if (nv >= 2 * kMinGroup) {
+      // Otsu: the split maximising the between-class variance n1 n2 (m1 - m2)^2.
+      std::vector<double> cum(nv + 1, 0.0);
+      for (int i = 0; i < nv; ++i) cum[i + 1] = cum[i] + lh[i];
+      int best_i = -1;
+      double best_v = -1.0;
+      for (int i = 1; i < nv; ++i) {
+        const double m1 = cum[i] / i, m2 = (cum[nv] - cum[i]) / (nv - i);
+        const double v = static_cast<double>(i) * (nv - i) * (m1 - m2) * (m1 - m2);
+        if (v > best_v) {
+          best_v = v;
+          best_i = i;
+        }
+      }
+      const double med_lo = lh[best_i / 2], med_hi = lh[best_i + (nv - best_i) / 2];
+      if (best_i >= kMinGroup && nv - best_i >= kMinGroup &&
+          med_hi - med_lo >= std::log(p.shadow_split_ratio)) {
+        split_at = std::exp(0.5 * (lh[best_i - 1] + lh[best_i]));
+        // A band's two straight edges cut an ellipse in at most four points, so the classes
+        // alternate at most four times around it; more alternations are texture next to the
+        // edge (the code cells inside the central ring), not a shadow.
+        constexpr int kMaxShadowCrossings = 4;
+        int changes = 0, first = -1, prev = -1;
+        for (int k = 0; k < n; ++k) {
+          if (!valid[k]) continue;
+          const int cls = phi[k] < split_at ? 0 : 1;
+          if (first < 0) first = cls;
+          if (prev >= 0 && cls != prev) ++changes;
+          prev = cls;
+        }
+        if (prev >= 0 && prev != first) ++changes;
+        if (changes > kMaxShadowCrossings) split_at = -1.0;
+      }
+    }
+  }
+  if (two_lights) *two_lights = split_at > 0;
+  if (split_light) {
+    if (split_at > 0) {
+      for (int k = 0; k < n; ++k) {
+        if (valid[k]) group[k] = phi[k] < split_at ? 2 : 1;
+      }
+      std::vector<int> g2 = group;
+      for (int k = 0; k < n; ++k) {
+        const int a = (k + n - 1) % n, b = (k + 1) % n;
+        if (valid[k] && ((valid[a] && group[a] != group[k]) || (valid[b] && group[b] != group[k]))) {
+          g2[k] = -1;
+        }
+      }
+      group.swap(g2);
+    }
+    auto median_sigma = [](std::vector<double> v, double& med, double& sig) {
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      med = v[v.size() / 2];
+      for (double& x : v) x = std::abs(x - med);
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      sig = 1.4826 * std::max(v[v.size() / 2], kMinNoiseGrey);
+    };
+    for (int gi : {0, 1, 2}) {
+      std::vector<double> los, his;
+      for (int k = 0; k < n; ++k) {
+        if (!valid[k] || group[k] != gi) continue;
+        los.push_back(plo[k]);
+        his.push_back(phi[k]);
+      }
+      if (los.empty()) continue;
+      double mlo, slo, mhi, shi;
+      median_sigma(los, mlo, slo);
+      median_sigma(his, mhi, shi);
+      double lo = 1e9, hi = -1e9;
+      int used = 0;
+      for (int k = 0; k < n; ++k) {
+        if (!valid[k] || group[k] != gi) continue;
+        if (std::abs(plo[k] - mlo) > 3 * slo || std::abs(phi[k] - mhi) > 3 * shi) {
+          group[k] = -1;
+          continue;
+        }
+        lo = std::min(lo, plo[k]);
+        hi = std::max(hi, phi[k]);
+        ++used;
+      }
+      if (used < kMinGroup) {
+        for (int k = 0; k < n; ++k) {
+          if (valid[k] && group[k] == gi) group[k] = -1;
+        }
+      } else {
+        level_group[gi] = 0.5 * (lo + hi);
+      }
+    }
+  }
   for (int k = 0; k < n; ++k) {
-    if (!valid[k]) continue;
+    if (!valid[k] || group[k] < 0) continue;
+    const double level = level_group[group[k]];
     const double* pr = &prof[static_cast<std::size_t>(k) * m];
     double best = 1e9;
     for (int j = 0; j + 1 < m; ++j) {
@@ -124,13 +263,77 @@ std::optional<Conic> robust_fit(std::vector<Eigen::Vector2d>& pts, double* rms) 
   return fit_ellipse(pts, rms);
 }
 
+// Initial ellipse of a pixel contour (full-image px) if it passes the cheap shape gates:
+// whole inside the search region, long enough, axes, length close to the perimeter, and a
+// small residual of the direct least-squares fit.
+std::optional<EllipseParams> contour_ellipse(const std::vector<cv::Point>& c,
+                                             const cv::Point2f& off, const cv::Rect& roi,
+                                             const VisionParams& p) {
+  if (static_cast<int>(c.size()) < p.min_contour_points) return std::nullopt;
+  const cv::Rect br = cv::boundingRect(c);
+  // A contour cut by the search region is not a whole ellipse.
+  if (br.x <= 0 || br.y <= 0 || br.x + br.width >= roi.width || br.y + br.height >= roi.height) {
+    return std::nullopt;
+  }
+  // Initial ellipse: direct least squares on the pixel contour (Eigen; cv::fitEllipse goes
+  // through LAPACK SVD and costs several times more for these tiny systems).
+  std::vector<Eigen::Vector2d> cpts;
+  const int cstride = std::max<int>(1, static_cast<int>(c.size()) / 96);
+  cpts.reserve(c.size() / cstride + 1);
+  for (std::size_t i = 0; i < c.size(); i += cstride) {
+    cpts.emplace_back(c[i].x + off.x, c[i].y + off.y);
+  }
+  const auto Cc = fit_ellipse(cpts);
+  const auto ec = Cc ? ellipse_from_conic(*Cc) : std::nullopt;
+  if (!ec) return std::nullopt;
+  const EllipseParams& e0 = *ec;
+  if (!(e0.b >= p.min_axis_px) || e0.b < p.min_axis_ratio * e0.a) return std::nullopt;
+  // Contour length must be close to the ellipse perimeter (Ramanujan), a cheap shape gate.
+  const double h = std::pow((e0.a - e0.b) / (e0.a + e0.b), 2);
+  const double perim = M_PI * (e0.a + e0.b) * (1 + 3 * h / (10 + std::sqrt(4 - 3 * h)));
+  if (c.size() > 1.6 * perim || c.size() < 0.5 * perim) return std::nullopt;
+  // Pixel-contour fit residual gate.
+  const Conic& C0 = *Cc;
+  double ss = 0.0;
+  int cnt = 0;
+  for (const auto& q : cpts) {
+    const double d = sampson_distance(C0, q);
+    ss += d * d;
+    ++cnt;
+  }
+  if (std::sqrt(ss / cnt) > p.max_contour_fit_rms_px) return std::nullopt;
+  return e0;
+}
+
+// Duplicates (both sides of a Canny edge, or one edge found at several threshold levels,
+// converge on the same sub-pixel edge): keep the best fitted one.
+std::vector<EllipseCandidate> unique_ellipses(std::vector<EllipseCandidate>& out) {
+  constexpr double kSameEllipsePx = 0.5;
+  std::vector<EllipseCandidate> unique;
+  for (auto& c : out) {
+    bool dup = false;
+    for (auto& u : unique) {
+      if ((c.undist.centre - u.undist.centre).norm() < kSameEllipsePx &&
+          std::abs(c.undist.a - u.undist.a) < kSameEllipsePx &&
+          std::abs(c.undist.b - u.undist.b) < kSameEllipsePx) {
+        if (c.fit_rms_px < u.fit_rms_px) u = c;
+        dup = true;
+        break;
+      }
+    }
+    if (!dup) unique.push_back(std::move(c));
+  }
+  return unique;
+}
+
 }  // namespace
 
 // Sub-pixel edges around `e0` (raw image px) and refit, then undistort the edge points (never
 // the image) and fit again in undistorted px.
 std::optional<EllipseCandidate> refine_candidate(const cv::Mat& blurred, const cv::Point2f& off,
                                                  const EllipseParams& e0, double search_px,
-                                                 const CameraModel& cam, const VisionParams& p) {
+                                                 const CameraModel& cam, const VisionParams& p,
+                                                 bool split_light) {
   // After the first pass the ellipse is within a few tenths of a pixel of the edge, so later
   // passes search a narrower band (faster, and less exposed to neighbouring edges).
   constexpr double kRefinedSearchPx = 1.0;
@@ -138,9 +341,10 @@ std::optional<EllipseCandidate> refine_candidate(const cv::Mat& blurred, const c
   std::vector<Eigen::Vector2d> pts;
   std::optional<Conic> C_img;
   double rms = 0.0;
+  bool two_lights = false;
   for (int it = 0; it < std::max(1, p.refine_iterations); ++it) {
     pts = edge_points(blurred, off, e, it == 0 ? search_px : std::min(search_px, kRefinedSearchPx),
-                      p);
+                      p, split_light, &two_lights);
     if (static_cast<int>(pts.size()) < std::max(6, static_cast<int>(0.6 * p.edge_samples))) {
       return std::nullopt;
     }
@@ -150,7 +354,15 @@ std::optional<EllipseCandidate> refine_candidate(const cv::Mat& blurred, const c
     e = *en;
   }
   if (rms > p.max_edge_fit_rms_px) return std::nullopt;
+  // In the shadow pass an ellipse must fit as well as a clean one (the real renders' golden
+  // frames fit within 0.016-0.072 px RMS): a small hole cut by a shadow's edge (both sides
+  // blurred into each other), or the central ring's inner circle where the code cells next to
+  // it hide the shadow's edge from the grouping, otherwise passes with up to a pixel of error
+  // in its shape (seen: 0.22 px RMS and 1.3 px on an axis; 0.11 px RMS and 0.8 px).
+  constexpr double kShadowMaxFitRmsPx = 0.1;
+  if (split_light && rms > kShadowMaxFitRmsPx) return std::nullopt;
   EllipseCandidate cand;
+  cand.two_lights = two_lights;
   cand.image = e;
   if (cam.has_distortion()) {
     const cv::Mat Kcv = camera_matrix_cv(cam);
@@ -171,9 +383,70 @@ std::optional<EllipseCandidate> refine_candidate(const cv::Mat& blurred, const c
   return cand;
 }
 
+namespace {
+
+// Shadow-tolerant segmentation. Under a hard shadow (light s) the target's two reflectances
+// give four grey levels: lit white W, lit black B, shadowed white sW, shadowed black sB. A
+// global threshold t with B < t < sW segments both sides of the shadow's edge correctly (the
+// ring stays dark, the white around it light, lit or shadowed), where Otsu's threshold, near
+// (B + W) / 2, puts sW with the rings. That interval exists whenever W/B > 1/s and is not known
+// in advance, so contours are taken at a few levels, fractions shadow_levels of the region's
+// white reference (the 99.5th percentile of the pre-filtered region); one edge found at several
+// levels is refined once. Edge points then take a level per illumination (edge_points).
+std::vector<EllipseCandidate> find_ellipses_shadow(const cv::Mat& blurred, cv::Mat& bin,
+                                                   const cv::Point2f& off, const cv::Rect& roi,
+                                                   const CameraModel& cam, const VisionParams& p) {
+  // White reference: the 99.5th percentile of the grey levels.
+  int hist[256] = {0};
+  for (int y = 0; y < blurred.rows; ++y) {
+    const std::uint8_t* r = blurred.ptr<std::uint8_t>(y);
+    for (int x = 0; x < blurred.cols; ++x) ++hist[r[x]];
+  }
+  const double total = static_cast<double>(blurred.rows) * blurred.cols;
+  int white = 255;
+  for (double acc = 0; white > 0; --white) {
+    acc += hist[white];
+    if (acc >= 0.005 * total) break;
+  }
+  std::vector<EllipseCandidate> out;
+  std::vector<EllipseParams> seen;  // initial ellipses already refined
+  std::vector<std::vector<cv::Point>> contours;
+  int last_t = -1;
+  for (double f : p.shadow_levels) {
+    const int t = static_cast<int>(std::lround(f * white));
+    if (t < 2 || t == last_t) continue;
+    last_t = t;
+    cv::threshold(blurred, bin, t, 255, cv::THRESH_BINARY_INV);
+    contours.clear();
+    cv::findContours(bin, contours, cv::RETR_LIST, cv::CHAIN_APPROX_NONE);
+    for (const auto& c : contours) {
+      const auto e0 = contour_ellipse(c, off, roi, p);
+      if (!e0) continue;
+      // The same edge at another level: its contour ellipse is within a pixel or so (a few
+      // per cent of the axes at close range), far less than an annulus' width.
+      const double tol = std::max(1.0, 0.03 * e0->a);
+      bool dup = false;
+      for (const auto& q : seen) {
+        if ((q.centre - e0->centre).norm() < tol && std::abs(q.a - e0->a) < tol &&
+            std::abs(q.b - e0->b) < tol) {
+          dup = true;
+          break;
+        }
+      }
+      if (dup) continue;
+      seen.push_back(*e0);
+      auto cand = refine_candidate(blurred, off, *e0, p.edge_search_px, cam, p, true);
+      if (cand) out.push_back(std::move(*cand));
+    }
+  }
+  return unique_ellipses(out);
+}
+
+}  // namespace
+
 std::vector<EllipseCandidate> find_ellipses(const cv::Mat& grey, const cv::Rect& roi,
                                             const CameraModel& cam, const VisionParams& p,
-                                            cv::Mat* blurred_out) {
+                                            cv::Mat* blurred_out, bool shadow) {
   std::vector<EllipseCandidate> out;
   const cv::Mat sub = grey(roi);
   const cv::Point2f off(static_cast<float>(roi.x), static_cast<float>(roi.y));
@@ -194,6 +467,8 @@ std::vector<EllipseCandidate> find_ellipses(const cv::Mat& grey, const cv::Rect&
   }
   // Dark annuli become foreground (255).
   cv::Mat bin = bin_buf(cv::Rect(0, 0, roi.width, roi.height));
+  if (blurred_out) *blurred_out = blurred;
+  if (shadow) return find_ellipses_shadow(blurred, bin, off, roi, cam, p);
   if (p.adaptive_threshold) {
     cv::adaptiveThreshold(blurred, bin, 255, cv::ADAPTIVE_THRESH_MEAN_C, cv::THRESH_BINARY_INV,
                           p.adaptive_block_px, p.adaptive_offset);
@@ -210,65 +485,16 @@ std::vector<EllipseCandidate> find_ellipses(const cv::Mat& grey, const cv::Rect&
   } else if (p.close_kernel_px > 1) {
     cv::morphologyEx(bin, bin, cv::MORPH_CLOSE, kernel);
   }
-  if (blurred_out) *blurred_out = blurred;
   std::vector<std::vector<cv::Point>> contours;
   cv::findContours(bin, contours, cv::RETR_LIST, cv::CHAIN_APPROX_NONE);
 
   for (const auto& c : contours) {
-    if (static_cast<int>(c.size()) < p.min_contour_points) continue;
-    const cv::Rect br = cv::boundingRect(c);
-    // A contour cut by the search region is not a whole ellipse.
-    if (br.x <= 0 || br.y <= 0 || br.x + br.width >= roi.width || br.y + br.height >= roi.height) {
-      continue;
-    }
-    // Initial ellipse: direct least squares on the pixel contour (Eigen; cv::fitEllipse goes
-    // through LAPACK SVD and costs several times more for these tiny systems).
-    std::vector<Eigen::Vector2d> cpts;
-    const int cstride = std::max<int>(1, static_cast<int>(c.size()) / 96);
-    cpts.reserve(c.size() / cstride + 1);
-    for (std::size_t i = 0; i < c.size(); i += cstride) {
-      cpts.emplace_back(c[i].x + off.x, c[i].y + off.y);
-    }
-    const auto Cc = fit_ellipse(cpts);
-    const auto ec = Cc ? ellipse_from_conic(*Cc) : std::nullopt;
-    if (!ec) continue;
-    const EllipseParams& e0 = *ec;
-    if (!(e0.b >= p.min_axis_px) || e0.b < p.min_axis_ratio * e0.a) continue;
-    // Contour length must be close to the ellipse perimeter (Ramanujan), a cheap shape gate.
-    const double h = std::pow((e0.a - e0.b) / (e0.a + e0.b), 2);
-    const double perim = M_PI * (e0.a + e0.b) * (1 + 3 * h / (10 + std::sqrt(4 - 3 * h)));
-    if (c.size() > 1.6 * perim || c.size() < 0.5 * perim) continue;
-    // Pixel-contour fit residual gate.
-    const Conic& C0 = *Cc;
-    double ss = 0.0;
-    int cnt = 0;
-    for (const auto& q : cpts) {
-      const double d = sampson_distance(C0, q);
-      ss += d * d;
-      ++cnt;
-    }
-    if (std::sqrt(ss / cnt) > p.max_contour_fit_rms_px) continue;
-
-    auto cand = refine_candidate(blurred, off, e0, p.edge_search_px, cam, p);
+    const auto e0 = contour_ellipse(c, off, roi, p);
+    if (!e0) continue;
+    auto cand = refine_candidate(blurred, off, *e0, p.edge_search_px, cam, p);
     if (cand) out.push_back(std::move(*cand));
   }
-  // Duplicates (both sides of a Canny edge converge on the same sub-pixel edge): keep one.
-  constexpr double kSameEllipsePx = 0.5;
-  std::vector<EllipseCandidate> unique;
-  for (auto& c : out) {
-    bool dup = false;
-    for (auto& u : unique) {
-      if ((c.undist.centre - u.undist.centre).norm() < kSameEllipsePx &&
-          std::abs(c.undist.a - u.undist.a) < kSameEllipsePx &&
-          std::abs(c.undist.b - u.undist.b) < kSameEllipsePx) {
-        if (c.fit_rms_px < u.fit_rms_px) u = c;
-        dup = true;
-        break;
-      }
-    }
-    if (!dup) unique.push_back(std::move(c));
-  }
-  return unique;
+  return unique_ellipses(out);
 }
 
 }  // namespace lander::vision_internal

@@ -19,21 +19,27 @@ struct EllipseCandidate {
   EllipseParams undist;                 ///< in undistorted px
   std::vector<Eigen::Vector2d> points;  ///< sub-pixel edge points, undistorted px
   double fit_rms_px{0.0};
+  bool two_lights{false};               ///< its edge profiles show two illuminations (a
+                                        ///< shadow's edge crosses it)
 };
 
 // Stage 1-2: contours of `grey` inside `roi` -> sub-pixel ellipses (image-wide coordinates).
 // `grey` is the full 8-bit frame.
 // `blurred_out`, if given, receives the pre-filtered ROI for refine_candidate().
+// `shadow`: the shadow-tolerant segmentation (contours at the levels p.shadow_levels of the
+// white reference, edge levels per illumination) instead of the global one.
 std::vector<EllipseCandidate> find_ellipses(const cv::Mat& grey, const cv::Rect& roi,
                                             const CameraModel& cam, const VisionParams& p,
-                                            cv::Mat* blurred_out = nullptr);
+                                            cv::Mat* blurred_out = nullptr, bool shadow = false);
 
 // Sub-pixel edge points around the ellipse guess `e0` (raw image px) searched within
 // +-search_px along the normals, refitted; nullopt if too few edges or a poor fit.
 // `blurred` is the pre-filtered ROI whose origin is `off` in the full image.
+// `split_light`: edge levels per illumination where a shadow's edge crosses the ellipse.
 std::optional<EllipseCandidate> refine_candidate(const cv::Mat& blurred, const cv::Point2f& off,
                                                  const EllipseParams& e0, double search_px,
-                                                 const CameraModel& cam, const VisionParams& p);
+                                                 const CameraModel& cam, const VisionParams& p,
+                                                 bool split_light = false);
 
 // Stage 5b: Levenberg-Marquardt on the conic reprojection cost (seed 000 eq. 14-15).
 struct ConicObservation {

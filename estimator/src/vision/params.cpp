@@ -18,6 +18,12 @@ void VisionParams::validate() const {
   require(max_edge_fit_rms_px > 0, "max_edge_fit_rms_px", "must be > 0");
   require(edge_blur_sigma_px >= 0 && edge_blur_sigma_px <= 10, "edge_blur_sigma_px",
           "must be in [0, 10]");
+  require(!shadow_pass || !shadow_levels.empty(), "shadow_levels",
+          "must not be empty when shadow_pass is on");
+  for (double f : shadow_levels) {
+    require(f > 0 && f < 1, "shadow_levels", "each level must be in (0, 1)");
+  }
+  require(shadow_split_ratio > 1, "shadow_split_ratio", "must be > 1");
   require(max_centre_offset_ratio > 0, "max_centre_offset_ratio", "must be > 0");
   require(harmonic_tol_px > 0, "harmonic_tol_px", "must be > 0");
   require(harmonic_max_iter >= 2, "harmonic_max_iter", "must be >= 2");

@@ -119,6 +119,25 @@ cv::Mat render_ideal_ss(const TargetGeometry& g, const Eigen::Matrix3d& K, cv::S
       if (sref * (Mi(2, 0) * x + Mi(2, 1) * y + Mi(2, 2)) <= 0) row[x] = ground;
     }
   }
+  // Shadow bands: each sample in front of the camera whose plane point (P, m) lies in a band
+  // is multiplied by the band's light (supersampling makes the band's edges anti-aliased).
+  if (!opt.shadows.empty()) {
+    const Eigen::Matrix3d G = (T * plane_homography(K, X_CP)).inverse();  // sample px -> P
+    for (int y = 0; y < ss.rows; ++y) {
+      float* row = ss.ptr<float>(y);
+      for (int x = 0; x < ss.cols; ++x) {
+        const double w = G(2, 0) * x + G(2, 1) * y + G(2, 2);
+        if (sref * (Mi(2, 0) * x + Mi(2, 1) * y + Mi(2, 2)) <= 0 || w == 0) continue;
+        const double px = (G(0, 0) * x + G(0, 1) * y + G(0, 2)) / w;
+        const double py = (G(1, 0) * x + G(1, 1) * y + G(1, 2)) / w;
+        for (const auto& b : opt.shadows) {
+          const double a = b.angle_deg * M_PI / 180.0;
+          const double s = px * std::cos(a) + py * std::sin(a) - b.offset_m;
+          if (std::abs(s) < 0.5 * b.width_m) row[x] *= static_cast<float>(b.light);
+        }
+      }
+    }
+  }
   return ss;
 }
 
@@ -299,6 +318,38 @@ cv::Mat distractor_frame(const CameraModel& cam, std::uint64_t seed) {
     }
   }
   return img;
+}
+
+void apply_image_band(cv::Mat& img, const Eigen::Vector2d& point_px, double angle_deg,
+                      double width_px, double light) {
+  CV_Assert(img.depth() == CV_8U);
+  const double a = angle_deg * M_PI / 180.0, c = std::cos(a), s = std::sin(a);
+  const int ch = img.channels();
+  for (int y = 0; y < img.rows; ++y) {
+    std::uint8_t* row = img.ptr<std::uint8_t>(y);
+    for (int x = 0; x < img.cols; ++x) {
+      // Signed distance of the pixel centre to the centre line; the covered fraction of the
+      // pixel's box, exact for an edge along an image axis and close to it otherwise.
+      const double d = std::abs((x - point_px.x()) * c + (y - point_px.y()) * s);
+      const double cover = std::clamp(0.5 * width_px - d + 0.5, 0.0, 1.0);
+      if (cover <= 0) continue;
+      const double f = 1.0 - cover * (1.0 - light);
+      for (int k = 0; k < ch; ++k) row[x * ch + k] = cv::saturate_cast<std::uint8_t>(row[x * ch + k] * f);
+    }
+  }
+}
+
+std::vector<int> ring_sets_crossed(const TargetGeometry& g, const ShadowBand& band) {
+  std::vector<int> ids;
+  const double a = band.angle_deg * M_PI / 180.0;
+  const Eigen::Vector2d n(std::cos(a), std::sin(a));
+  for (const auto& r : g.rings) {
+    const double s = r.centre_P_m.dot(n) - band.offset_m;
+    // An edge line at signed distance e from the ring's centre cuts its outer circle if |e| < R.
+    const double e1 = s - 0.5 * band.width_m, e2 = s + 0.5 * band.width_m;
+    if (std::abs(e1) < r.outer_radius_m || std::abs(e2) < r.outer_radius_m) ids.push_back(r.id);
+  }
+  return ids;
 }
 
 double rotation_error_rad(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {

@@ -26,6 +26,17 @@ Eigen::Isometry3d look_at_pose(double altitude_m, double tilt_deg, double yaw_de
                                double azimuth_deg = 0.0,
                                const Eigen::Vector2d& aim_P_m = Eigen::Vector2d::Zero());
 
+// A hard shadow band on the platform plane (a directional sun's shadow of a straight
+// occluder, e.g. a vehicle arm or the cart's frame): the points q of the plane (P, m) with
+// |q . n - offset_m| < width_m / 2, n = (cos angle_deg, sin angle_deg), receive `light` times
+// the light. Applied to the supersampled view before blur and noise, ground included.
+struct ShadowBand {
+  double width_m{0.2};     ///< band width on the plane (m)
+  double light{0.2};       ///< light left in the band (0..1): 0.2 = a hard shadow at 20 %
+  double angle_deg{0.0};   ///< direction of the band's normal in P (deg from +x)
+  double offset_m{0.0};    ///< signed distance of the band's centre line from the P origin (m)
+};
+
 struct SynthOptions {
   int supersample{3};          ///< samples per pixel side (box filter)
   double ground_grey{0.45};    ///< grey level outside the platform (0..1)
@@ -34,7 +45,12 @@ struct SynthOptions {
   double blur_angle_deg{0.0};  ///< motion direction in the image (deg from +u)
   std::uint64_t seed{1};       ///< noise seed
   bool bgr{true};              ///< 3-channel output (else grey)
+  std::vector<ShadowBand> shadows;  ///< shadow bands on the plane (none by default)
 };
+
+// The ring sets (ids) whose outer circle a shadow band's edge crosses: the sets a band
+// boundary cuts, where a global threshold merges shadowed white with the dark annuli.
+std::vector<int> ring_sets_crossed(const TargetGeometry& g, const ShadowBand& band);
 
 // Replaces the texture used by render_view()/render_exposure() for the target object `g`
 // (by address; e.g. a copy of default_target() whose printed code was altered). BGR 8-bit,
@@ -67,6 +83,13 @@ void motion_blur(cv::Mat& img, double length_px, double angle_deg);
 // A 1280x720 frame of grey ground with dark and light discs and annuli whose radius ratios
 // match no ring set, some of them concentric.
 cv::Mat distractor_frame(const CameraModel& camera, std::uint64_t seed);
+
+// Multiplies a straight band of the image by `light`: the pixels within width_px / 2 of the
+// line through `point_px` whose normal makes `angle_deg` with +u, the band's edges
+// anti-aliased (coverage of each pixel's box). For frames not drawn through the platform plane
+// (distractor_frame()).
+void apply_image_band(cv::Mat& img, const Eigen::Vector2d& point_px, double angle_deg,
+                      double width_px, double light);
 
 // Rotation angle between two rotations (rad) and position distance (m).
 double rotation_error_rad(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b);

@@ -31,6 +31,27 @@ namespace lander::bench {
 using BenchRenderFn =
     std::function<cv::Mat(const Eigen::Isometry3d& X_WC, MarkerKind kind, double blur_px)>;
 
+// A hard shadow band on the platform plane, the shadow of a straight occluder (a vehicle arm,
+// the cart's frame) in a directional sun: the plane points q (P, m) with
+// |q . n - offset_m| < width_m / 2, n = (cos angle_rad, sin angle_rad), get `light` times
+// the light. Multiplying that band of a rendered frame is the flat target's shadow.
+struct ShadowBand {
+  double width_m{0.2};     ///< band width on the platform plane (m)
+  double light{0.2};       ///< light left in the band (0..1)
+  double angle_rad{0.0};   ///< direction of the band's normal in P (rad from +x)
+  double offset_m{0.0};    ///< signed distance of the centre line from the P origin (m)
+};
+
+// Multiplies the pixels of `img` (8-bit, any channel count) whose ray meets the platform
+// plane inside `band` by band.light; pixels on the band's edges by their covered fraction
+// (analytic anti-aliasing), pixels above the horizon not at all. `camera` projects (lens
+// distortion included) and `X_CP` places the platform in the camera frame.
+void apply_shadow_band(cv::Mat& img, const CameraModel& camera, const Eigen::Isometry3d& X_CP,
+                       const ShadowBand& band);
+
+// Ids of the ring sets whose outer circle a band edge cuts (the sets a shadow boundary crosses).
+std::vector<int> ring_sets_crossed(const TargetGeometry& target, const ShadowBand& band);
+
 struct EstimatorBenchParams {
   std::vector<double> altitudes_m{1.0, 2.5, 5.0, 10.0, 15.0};  ///< camera height above the top
   std::vector<double> tilts_deg{0.0, 30.0, 45.0, 60.0, 70.0};  ///< optical axis vs normal
@@ -39,6 +60,18 @@ struct EstimatorBenchParams {
   int empty_frames{1000};     ///< frames with no target in view, per method
   std::uint64_t seed{1};      ///< random yaws, empty-frame poses
   double aim_jitter_m{0.1};   ///< random offset of the aim point from the platform centre (m)
+  bool view_sweep{true};      ///< run the sweep of views above (altitude x tilt x blur)
+  // ---- shadow condition (issue 12): hard shadow bands across the target ----
+  bool shadow_sweep{false};   ///< run the shadow condition (`lander bench estimator` turns
+                              ///< it on for the full sweep)
+  std::vector<double> shadow_altitudes_m{1.5, 2.5, 5.0, 10.0};  ///< camera heights (m)
+  std::vector<double> shadow_tilts_deg{0.0, 30.0, 45.0};        ///< optical axis vs normal
+  std::vector<double> shadow_widths_m{0.05, 0.2, 0.5, 1.0};     ///< band widths on the plane
+  std::vector<double> shadow_lights{0.2, 0.5};  ///< light left in the band (0.2 = 20 %)
+  int shadow_views_per_pose{3};  ///< random yaws per altitude/tilt; each view gets every
+                                 ///< width x light band at one random angle and offset
+  double shadow_max_offset_m{0.6};  ///< band centre line within this of the P origin (m)
+  int shadow_empty_frames{200};  ///< target-free frames with a random band, per method
   void validate() const;
 };
 
@@ -51,6 +84,15 @@ void visit_fields(V& v, EstimatorBenchParams& p) {
   v("empty_frames", p.empty_frames);
   v("seed", p.seed);
   v("aim_jitter_m", p.aim_jitter_m);
+  v("view_sweep", p.view_sweep);
+  v("shadow_sweep", p.shadow_sweep);
+  v("shadow_altitudes_m", p.shadow_altitudes_m);
+  v("shadow_tilts_deg", p.shadow_tilts_deg);
+  v("shadow_widths_m", p.shadow_widths_m);
+  v("shadow_lights", p.shadow_lights);
+  v("shadow_views_per_pose", p.shadow_views_per_pose);
+  v("shadow_max_offset_m", p.shadow_max_offset_m);
+  v("shadow_empty_frames", p.shadow_empty_frames);
 }
 
 // Camera pose X_PC looking at `aim_P_m` from `altitude_m` above the platform plane, the optical
@@ -66,8 +108,15 @@ Eigen::Isometry3d bench_camera_pose_P(double altitude_m, double tilt_deg, double
 // the true projections), reproj_err_px_mean and reproj_err_px_var (eq. 30 as a per-frame RMS),
 // pos_err_m_mean, rot_err_deg_mean, ms_per_frame_median (thread CPU time of one detection,
 // one thread, so a loaded machine does not inflate it), frames, empty_frames;
-// plus `ours.overall.ms_per_frame_median_tracking`, and `config`.
-// `progress`, if given, receives one line per altitude.
+// plus `ours.overall.ms_per_frame_median_tracking` and `ours.overall.ms_per_frame_median_empty`
+// (target-free frames), and `config`.
+// With params.shadow_sweep, `shadows` holds the shadow condition: for each method (`ours`,
+// `apriltag`, `aruco`, `aruco.subpix`) and each light level (`light_0.2`, ...), the metrics
+// over frames with the whole target in view (`in_view`: all ring sets and the marker's
+// corners inside the image), `all` frames, `by_width_m`, `by_altitude_m` and
+// `by_sets_crossed` (in-view frames), and `empty` (target-free frames with a band); the
+// same rendered frame (one per view and method) carries every band.
+// `progress`, if given, receives one line per altitude and, at the end, the shadow table.
 std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isometry3d& X_WP,
                                 const TargetGeometry& target, const CameraModel& camera,
                                 const VisionParams& vision, const EstimatorBenchParams& params,

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "lander/estimator/params_io.h"
 
@@ -33,6 +34,20 @@ struct VisionParams {
   double edge_blur_sigma_px{0.0};    ///< camera blur (optics, defocus) sigma beyond the pixel
                                      ///< box, for the curvature correction of edge points (px)
   bool guided_inner_search{true};    ///< look for a missing inner circle at each model ratio
+
+  // ---- shadows (issue 12) ----
+  bool shadow_pass{true};            ///< when the global threshold gives no pose, segment
+                                     ///< again at the shadow_levels and fit edge points per
+                                     ///< illumination: a hard shadow's edge across ring sets
+                                     ///< (20-50 % light) then no longer merges them
+  std::vector<double> shadow_levels{0.35, 0.25, 0.17, 0.12};  ///< threshold levels of the
+                                     ///< shadow pass, fractions of the region's white
+                                     ///< reference (99.5th percentile); a level between the
+                                     ///< lit black and the shadowed white segments both sides
+  double shadow_split_ratio{1.5};    ///< shadow pass: around one ellipse, two classes of
+                                     ///< edge profiles whose median brightest values differ
+                                     ///< by this factor or more are two illuminations (a
+                                     ///< 50 % shadow gives 2)
 
   // ---- concentric pairing and identity (eq. 1-9) ----
   double max_centre_offset_ratio{0.35};  ///< |c_outer - c_inner| / inner minor axis, ceiling
@@ -102,6 +117,9 @@ void visit_fields(V& v, VisionParams& p) {
   v("max_edge_fit_rms_px", p.max_edge_fit_rms_px);
   v("edge_blur_sigma_px", p.edge_blur_sigma_px);
   v("guided_inner_search", p.guided_inner_search);
+  v("shadow_pass", p.shadow_pass);
+  v("shadow_levels", p.shadow_levels);
+  v("shadow_split_ratio", p.shadow_split_ratio);
   v("max_centre_offset_ratio", p.max_centre_offset_ratio);
   v("harmonic_tol_px", p.harmonic_tol_px);
   v("harmonic_max_iter", p.harmonic_max_iter);
