@@ -278,20 +278,39 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
   const auto corners = marker_corners_P(g);
   const std::vector<Eigen::Vector2d> corners_P(corners.begin(), corners.end());
 
-  // Square-marker frame: detection, corner error against the true projections, pose error.
+  // One frame of ours / of a square marker into a group: detection, centre or corner error
+  // against the true projections `truth`, reprojection, pose error.
+  auto add_ours = [&](Stats& s, const RingDetection& d, double cpu_ms, const Eigen::Isometry3d& X_CP,
+                      const std::vector<Eigen::Vector2d>& truth) {
+    ++s.frames;
+    s.ms.push_back(cpu_ms);
+    if (!d.detected) return;
+    ++s.detected;
+    for (const auto& c : d.centres) {
+      for (std::size_t i = 0; i < g.rings.size(); ++i) {
+        if (g.rings[i].id == c.ring_id) s.centre_err.push_back((c.centre_image_px - truth[i]).norm());
+      }
+    }
+    s.reproj.push_back(d.reproj_err_px);
+    s.pos.push_back((d.X_CP.translation() - X_CP.translation()).norm());
+    s.rot.push_back(rot_err_deg(d.X_CP, X_CP));
+  };
+  auto add_square = [&](Stats& s, const PeerDetection& d, double cpu_ms,
+                        const Eigen::Isometry3d& X_CP, const std::vector<Eigen::Vector2d>& truth) {
+    ++s.frames;
+    s.ms.push_back(cpu_ms);
+    if (!d.detected) return;
+    ++s.detected;
+    for (int i = 0; i < 4; ++i) s.centre_err.push_back((d.corners_px[i] - truth[i]).norm());
+    s.reproj.push_back(d.reproj_err_px);
+    s.pos.push_back((d.X_CP.translation() - X_CP.translation()).norm());
+    s.rot.push_back(rot_err_deg(d.X_CP, X_CP));
+  };
+  // Square-marker frame of the view sweep.
   auto score_square = [&](MethodStats& ms, const PeerDetection& d, double cpu_ms,
                           const Eigen::Isometry3d& X_CP, double alt, double blur) {
     const auto truth = project_P(cam, X_CP, corners_P);
-    ms.add(alt, blur, [&](Stats& s) {
-      ++s.frames;
-      s.ms.push_back(cpu_ms);
-      if (!d.detected) return;
-      ++s.detected;
-      for (int i = 0; i < 4; ++i) s.centre_err.push_back((d.corners_px[i] - truth[i]).norm());
-      s.reproj.push_back(d.reproj_err_px);
-      s.pos.push_back((d.X_CP.translation() - X_CP.translation()).norm());
-      s.rot.push_back(rot_err_deg(d.X_CP, X_CP));
-    });
+    ms.add(alt, blur, [&](Stats& s) { add_square(s, d, cpu_ms, X_CP, truth); });
   };
 
   for (double alt : p.view_sweep ? p.altitudes_m : std::vector<double>{}) {
@@ -321,21 +340,8 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
           }
           const auto truth = project_P(cam, X_CP, ring_centres_P);
           s_ours.add(alt, blur, [&](Stats& s) {
-            ++s.frames;
-            s.ms.push_back(ms_ours);
-            if (!d.detected) return;
-            ++s.detected;
-            if (std::isfinite(ms_track)) s.ms_tracking.push_back(ms_track);
-            for (const auto& c : d.centres) {
-              for (std::size_t i = 0; i < g.rings.size(); ++i) {
-                if (g.rings[i].id == c.ring_id) {
-                  s.centre_err.push_back((c.centre_image_px - truth[i]).norm());
-                }
-              }
-            }
-            s.reproj.push_back(d.reproj_err_px);
-            s.pos.push_back((d.X_CP.translation() - X_CP.translation()).norm());
-            s.rot.push_back(rot_err_deg(d.X_CP, X_CP));
+            add_ours(s, d, ms_ours, X_CP, truth);
+            if (d.detected && std::isfinite(ms_track)) s.ms_tracking.push_back(ms_track);
           });
 
           const cv::Mat tag = render(X_WC, MarkerKind::AprilTag, blur);
@@ -411,32 +417,6 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
   // Own random stream: the view sweep and empty frames above draw the same poses with or
   // without the shadow condition.
   std::mt19937_64 srng(p.seed + 12);
-  auto add_ours = [&](Stats& s, const RingDetection& d, double cpu_ms, const Eigen::Isometry3d& X_CP,
-                      const std::vector<Eigen::Vector2d>& truth) {
-    ++s.frames;
-    s.ms.push_back(cpu_ms);
-    if (!d.detected) return;
-    ++s.detected;
-    for (const auto& c : d.centres) {
-      for (std::size_t i = 0; i < g.rings.size(); ++i) {
-        if (g.rings[i].id == c.ring_id) s.centre_err.push_back((c.centre_image_px - truth[i]).norm());
-      }
-    }
-    s.reproj.push_back(d.reproj_err_px);
-    s.pos.push_back((d.X_CP.translation() - X_CP.translation()).norm());
-    s.rot.push_back(rot_err_deg(d.X_CP, X_CP));
-  };
-  auto add_square = [&](Stats& s, const PeerDetection& d, double cpu_ms,
-                        const Eigen::Isometry3d& X_CP, const std::vector<Eigen::Vector2d>& truth) {
-    ++s.frames;
-    s.ms.push_back(cpu_ms);
-    if (!d.detected) return;
-    ++s.detected;
-    for (int i = 0; i < 4; ++i) s.centre_err.push_back((d.corners_px[i] - truth[i]).norm());
-    s.reproj.push_back(d.reproj_err_px);
-    s.pos.push_back((d.X_CP.translation() - X_CP.translation()).norm());
-    s.rot.push_back(rot_err_deg(d.X_CP, X_CP));
-  };
   // The whole target in view: every ring set's outer circle and the marker's corners inside
   // the frame (so each method has its whole target to find).
   auto target_in_view = [&](const Eigen::Isometry3d& X_CP) {

@@ -23,7 +23,7 @@ int bench_loop(const Args& args) {
   s.validate();
   sim::RunOptions o;
   o.out_dir = a.value("out", "/tmp/lander_bench_loop");
-  o.vision_schedule = a.choice("vision-schedule", "auto", {"auto", "serial", "overlap"});
+  o.vision_schedule = a.choice("vision-schedule", "auto", sim::kVisionSchedules);
   o.vision_profile_csv = a.value("frames-csv");
   const nlohmann::ordered_json summary = sim::run_scenario(s, o);
   std::ifstream perf_file(o.out_dir + "/performance.json");

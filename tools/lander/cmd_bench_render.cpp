@@ -157,6 +157,7 @@ int bench_render(const Args& args) {
     ap.blur_samples = 64;
     ap.blur_px_per_render = 1.0;
     const int nf = static_cast<int>(a.integer("blur-frames", 8, 1));
+    sim::CameraPipeline pipe(ap, 1);  // averages whatever renders a frame adds
     for (const Condition& c : conds) {
       // The state at time tau into the exposure: constant velocities from the start pose.
       auto at = [&](int i, double tau) {
@@ -192,7 +193,6 @@ int bench_render(const Args& args) {
         at(i, 0.0);
         const double motion = sim::image_motion_px(s.camera.intrinsics, sim::exposure_motion(world, s.camera.intrinsics), ap.exposure_s);
         auto blurred = [&](int n, double* cost_ms) {
-          sim::CameraPipeline pipe(ap, 1);
           const auto t0 = std::chrono::steady_clock::now();
           pipe.begin(0.0);
           for (int k = 0; k < n; ++k) {

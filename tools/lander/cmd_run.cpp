@@ -30,7 +30,7 @@ int run(const Args& args) {
   o.replay_vision = a.value("replay-vision");
   o.save_frames_dir = a.value("save-frames");
   // The estimator on a worker thread or in line: same outputs bit for bit (README, Performance).
-  o.vision_schedule = a.choice("vision-schedule", "auto", {"auto", "serial", "overlap"});
+  o.vision_schedule = a.choice("vision-schedule", "auto", sim::kVisionSchedules);
   const nlohmann::ordered_json summary = sim::run_scenario(s, o);
   const std::string outcome = summary.at("outcome").get<std::string>();
   std::cout << "lander run: " << s.name << ": " << outcome << "\noutputs in " << o.out_dir

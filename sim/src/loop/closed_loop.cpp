@@ -9,6 +9,7 @@
 // whose controller's inner loop runs on each IMU sample and sets the rotor command; the
 // recorder judges and logs. The flight stack is built from the scenario's `flight:` section
 // only and never sees the plant's parameters or the truth.
+#include <algorithm>
 #include <chrono>
 #include <ctime>
 #include <future>
@@ -92,7 +93,6 @@ class VisionOutliers {
 struct VisionJob {
   CameraFrame frame;
   Recorder::FrameCapture capture;
-  double deliver_t_s{0};
   bool run_path{false};
   RingDetection det;
   std::optional<PathObservation> path;
@@ -118,8 +118,11 @@ class VisionStage {
   }
   bool overlapped() const { return overlap_; }
 
-  // Starts (or, serially, does) frame `job`'s detection. The previous job must be taken.
-  void submit(VisionJob job) {
+  // Starts (or, serially, does) frame `job`'s detection, whose result is due at `deliver_t_s`
+  // (used only by the overlapped schedule, which never runs with a measured latency). The
+  // previous job must be taken.
+  void submit(VisionJob job, double deliver_t_s) {
+    deliver_t_ = deliver_t_s;
     if (overlap_) {
       future_ = std::async(std::launch::async, [this, j = std::move(job)]() mutable {
         run(j);
@@ -133,7 +136,6 @@ class VisionStage {
   }
   bool pending() const { return pending_; }
   double pending_deliver_t() const { return deliver_t_; }
-  void set_pending_deliver_t(double t) { deliver_t_ = t; }
   // The submitted job, finished (waits for the worker). *wait_ms gets the time waited.
   VisionJob take(double* wait_ms) {
     pending_ = false;
@@ -168,11 +170,11 @@ class VisionStage {
 };
 
 bool overlap_vision(const Scenario& s, const RunOptions& o) {
-  if (o.vision_schedule == "serial") return false;
-  if (o.vision_schedule == "overlap") return !s.computer.measured_latency;
-  if (o.vision_schedule != "auto") {
+  if (std::find(kVisionSchedules.begin(), kVisionSchedules.end(), o.vision_schedule) == kVisionSchedules.end()) {
     throw std::invalid_argument("vision_schedule must be auto, serial or overlap (got '" + o.vision_schedule + "')");
   }
+  if (o.vision_schedule == "serial") return false;
+  if (o.vision_schedule == "overlap") return !s.computer.measured_latency;
   // The overlap pays only when the result is due after the next frame's exposure starts.
   return !s.computer.measured_latency && s.computer.vision_latency_s + s.camera.exposure_s >= 1.0 / s.camera.rate_hz;
 }
@@ -258,10 +260,8 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
       // The path stage (seed 003) runs only while the flight software can use it.
       job.run_path = flight.wants_path();
       job.frame = std::move(*frame);
-      // With a measured latency the delivery time is known only after the processing (serial).
       const double t_end = job.frame.exposure.t_end_s;
-      vision.submit(std::move(job));
-      if (!s.computer.measured_latency) vision.set_pending_deliver_t(t_end + s.computer.vision_latency_s);
+      vision.submit(std::move(job), t_end + s.computer.vision_latency_s);
       if (!vision.overlapped()) finish_vision();
     }
     // ---- plant ----

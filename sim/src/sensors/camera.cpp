@@ -88,7 +88,7 @@ ExposureMotion exposure_motion(const World& world, const CameraModel& cam) {
 }
 
 int blur_renders(const CameraParams& p, double motion_px) {
-  if (p.blur_px_per_render <= 0 || p.blur_samples <= 1) return p.blur_samples;
+  if (!p.adaptive_blur()) return p.blur_samples;
   const double n = std::ceil(motion_px / p.blur_px_per_render);
   if (!(n >= 1)) return 1;  // also NaN
   return static_cast<int>(std::min<double>(n, p.blur_samples));
@@ -265,7 +265,7 @@ std::optional<CameraFrame> CameraRig::advance(double t_s, World& world, Renderer
   if (!exposing_ && t_s + 1e-9 >= next_frame_t_) {
     exposing_ = true;
     pipeline_.begin(t_s);
-    const int n = p.blur_samples > 1 && p.blur_px_per_render > 0
+    const int n = p.adaptive_blur()
                       ? blur_renders(p, image_motion_px(p.intrinsics, exposure_motion(world, p.intrinsics), p.exposure_s))
                       : p.blur_samples;
     sample_times_ = exposure_sample_times(p, t_s, dt_, n);

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -40,6 +41,9 @@ struct RunOptions {
   // and CPU ms, path stage ms), for `lander bench loop --frames-csv`.
   std::string vision_profile_csv;
 };
+
+// The values of RunOptions::vision_schedule.
+inline const std::vector<std::string> kVisionSchedules = {"auto", "serial", "overlap"};
 
 // Checks everything that can be checked before any output is written: the scenario, the
 // model and target files, the output directory's parent. Throws ConfigError.

@@ -47,6 +47,8 @@ struct CameraParams {
                                  ///< (rad); YAML mount_error_deg
   Eigen::Vector3d mount_offset_m{Eigen::Vector3d::Zero()};   ///< true mount position off the
                                  ///< nominal one, in B (m)
+  // Blur whose render count follows the image motion (blur_renders()).
+  bool adaptive_blur() const { return blur_samples > 1 && blur_px_per_render > 0; }
   void validate() const {
     require(gain > 0 && gain <= 16, "gain", "must be in (0, 16]");
     require(mount_error_rad.cwiseAbs().maxCoeff() <= M_PI / 6, "mount_error_deg",
