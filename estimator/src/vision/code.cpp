@@ -687,19 +687,8 @@ CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
   std::vector<double> vals;
   for (const auto& r : reads) vals.push_back(r.mean);
   std::sort(vals.begin(), vals.end());
-  const int nv = static_cast<int>(vals.size());
-  std::vector<double> pre(nv + 1, 0.0);
-  for (int i = 0; i < nv; ++i) pre[i + 1] = pre[i] + vals[i];
-  double best_bv = -1, lo = 0, hi = 0;
-  for (int k = 1; k < nv; ++k) {
-    const double m0 = pre[k] / k, m1 = (pre[nv] - pre[k]) / (nv - k);
-    const double bv = static_cast<double>(k) * (nv - k) * (m1 - m0) * (m1 - m0);
-    if (bv > best_bv) {
-      best_bv = bv;
-      lo = m0;
-      hi = m1;
-    }
-  }
+  const vision_internal::OtsuSplit split = vision_internal::otsu_split_sorted(vals);
+  const double lo = split.mean_lo, hi = split.mean_hi;
   if (hi - lo < p.code_min_contrast) {
     return fail("cell contrast " + std::to_string(hi - lo) + " below the gate");
   }

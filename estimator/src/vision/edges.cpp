@@ -11,6 +11,23 @@
 
 namespace lander::vision_internal {
 
+OtsuSplit otsu_split_sorted(const std::vector<double>& v) {
+  const int n = static_cast<int>(v.size());
+  std::vector<double> cum(n + 1, 0.0);
+  for (int i = 0; i < n; ++i) cum[i + 1] = cum[i] + v[i];
+  OtsuSplit best;
+  double best_v = -1.0;
+  for (int i = 1; i < n; ++i) {
+    const double m_lo = cum[i] / i, m_hi = (cum[n] - cum[i]) / (n - i);
+    const double bv = static_cast<double>(i) * (n - i) * (m_lo - m_hi) * (m_lo - m_hi);
+    if (bv > best_v) {
+      best_v = bv;
+      best = {i, m_lo, m_hi};
+    }
+  }
+  return best;
+}
+
 namespace {
 
 // Bilinear grey value at (x, y) in an 8-bit image; false outside.
@@ -133,19 +150,7 @@ std::vector<Eigen::Vector2d> edge_points(const cv::Mat& img, const cv::Point2f& 
     std::sort(lh.begin(), lh.end());
     const int nv = static_cast<int>(lh.size());
     if (nv >= 2 * kMinGroup) {
-      // Otsu: the split maximising the between-class variance n1 n2 (m1 - m2)^2.
-      std::vector<double> cum(nv + 1, 0.0);
-      for (int i = 0; i < nv; ++i) cum[i + 1] = cum[i] + lh[i];
-      int best_i = -1;
-      double best_v = -1.0;
-      for (int i = 1; i < nv; ++i) {
-        const double m1 = cum[i] / i, m2 = (cum[nv] - cum[i]) / (nv - i);
-        const double v = static_cast<double>(i) * (nv - i) * (m1 - m2) * (m1 - m2);
-        if (v > best_v) {
-          best_v = v;
-          best_i = i;
-        }
-      }
+      const int best_i = otsu_split_sorted(lh).k;
       const double med_lo = lh[best_i / 2], med_hi = lh[best_i + (nv - best_i) / 2];
       if (best_i >= kMinGroup && nv - best_i >= kMinGroup &&
           med_hi - med_lo >= std::log(p.shadow_split_ratio)) {

@@ -67,6 +67,15 @@ struct YawPrior {
   Eigen::Matrix3d R_CP;
   double sigma_rad{0.05};
 };
+// Otsu's two-class split of values sorted ascending: the first k in [1, n) maximising the
+// between-class variance k (n - k) (m_lo - m_hi)^2, with the two classes' means. k = -1 when
+// n < 2.
+struct OtsuSplit {
+  int k{-1};
+  double mean_lo{0.0}, mean_hi{0.0};
+};
+OtsuSplit otsu_split_sorted(const std::vector<double>& sorted);
+
 RefineResult refine_pose_conics(const Eigen::Matrix3d& K, const Eigen::Isometry3d& X_CP0,
                                 const std::vector<ConicObservation>& obs, int points_per_ellipse,
                                 int max_iter,
