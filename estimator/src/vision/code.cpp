@@ -237,6 +237,8 @@ std::optional<Eigen::Matrix3d> fit_homography(const std::vector<Eigen::Vector2d>
 }
 
 double bilinear(const cv::Mat& g, double x, double y) {
+  x = vision_internal::clamp_coord(x);
+  y = vision_internal::clamp_coord(y);
   const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
   const double fx = x - x0, fy = y - y0;
   auto at = [&](int xx, int yy) {
@@ -575,12 +577,14 @@ CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
       }
       const Eigen::Vector2d q = apply_h(Hi, v);
       const Eigen::Vector2d r(std::round(q.x()), std::round(q.y()));
+      const auto rx = vision_internal::to_int_coord(r.x()), ry = vision_internal::to_int_coord(r.y());
+      if (!rx || !ry) continue;
       const double cell = (apply_h(*H, r + Eigen::Vector2d(0.5, 0)) -
                            apply_h(*H, r - Eigen::Vector2d(0.5, 0))).norm();
       if ((apply_h(*H, r) - v).norm() > kLatticeInlierFrac * cell) continue;
       l2.push_back(r);
       i2.push_back(v);
-      in_lab.emplace_back(static_cast<int>(r.x()), static_cast<int>(r.y()));
+      in_lab.emplace_back(*rx, *ry);
     }
     if (l2.size() < 8) return fail(std::to_string(l2.size()) + " corners on the lattice");
     auto H2 = fit_homography(l2, i2, false, 0.0);
@@ -604,7 +608,9 @@ CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
     const Eigen::Matrix3d Hi = H->inverse();
     for (const auto& v : verts) {
       const Eigen::Vector2d q = apply_h(Hi, v);
-      const Eigen::Vector2i r(static_cast<int>(std::lround(q.x())), static_cast<int>(std::lround(q.y())));
+      const auto rx = vision_internal::to_int_coord(std::round(q.x())), ry = vision_internal::to_int_coord(std::round(q.y()));
+      if (!rx || !ry) continue;
+      const Eigen::Vector2i r(*rx, *ry);
       const Eigen::Vector2d rd = r.cast<double>();
       const double cell = (apply_h(*H, rd + Eigen::Vector2d(0.5, 0)) -
                            apply_h(*H, rd - Eigen::Vector2d(0.5, 0))).norm();

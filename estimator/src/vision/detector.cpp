@@ -731,11 +731,12 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image) {
       }
       const double mx = params_.roi_margin * (x1 - x0), my = params_.roi_margin * (y1 - y0);
       const cv::Rect2d r(x0 - mx, y0 - my, x1 - x0 + 2 * mx, y1 - y0 + 2 * my);
-      const cv::Rect roi = cv::Rect(cv::Point(static_cast<int>(std::floor(r.x)),
-                                              static_cast<int>(std::floor(r.y))),
-                                    cv::Point(static_cast<int>(std::ceil(r.x + r.width)),
-                                              static_cast<int>(std::ceil(r.y + r.height)))) &
-                           full;
+      const cv::Rect roi =
+          cv::Rect(cv::Point(static_cast<int>(std::floor(vision_internal::clamp_coord(r.x))),
+                             static_cast<int>(std::floor(vision_internal::clamp_coord(r.y)))),
+                   cv::Point(static_cast<int>(std::ceil(vision_internal::clamp_coord(r.x + r.width))),
+                             static_cast<int>(std::ceil(vision_internal::clamp_coord(r.y + r.height))))) &
+          full;
       if (roi.width >= 16 && roi.height >= 16 && roi.area() < 0.7 * full.area()) {
         grey_region(image, roi, grey);
         done = search_region(grey, roi, camera_, target_, params_, d, cands);

@@ -32,7 +32,8 @@ namespace {
 
 // Bilinear grey value at (x, y) in an 8-bit image; false outside.
 inline bool sample(const cv::Mat& img, double x, double y, double& out) {
-  if (x < 0.0 || y < 0.0 || x > img.cols - 1.001 || y > img.rows - 1.001) return false;
+  // Written so that NaN fails too (a NaN cast to int is undefined behaviour).
+  if (!(x >= 0.0 && y >= 0.0 && x <= img.cols - 1.001 && y <= img.rows - 1.001)) return false;
   const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
   const double fx = x - x0, fy = y - y0;
   const std::uint8_t* r0 = img.ptr<std::uint8_t>(y0);

@@ -1,6 +1,8 @@
 // Internal stages of the ring detector (not part of the public API).
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <optional>
 #include <vector>
 
@@ -75,6 +77,19 @@ struct OtsuSplit {
   double mean_lo{0.0}, mean_hi{0.0};
 };
 OtsuSplit otsu_split_sorted(const std::vector<double>& sorted);
+
+// A computed pixel or lattice coordinate as an int, or nullopt when it is not finite or lies
+// beyond +-kMaxIntCoord: a degenerate homography or pose (hostile images do make them) can
+// send a point anywhere, and converting such a double to int is undefined behaviour.
+constexpr double kMaxIntCoord = 16777216.0;  // 2^24: far outside any image, exact in double
+inline std::optional<int> to_int_coord(double v) {
+  if (!(std::abs(v) <= kMaxIntCoord)) return std::nullopt;  // also false for NaN
+  return static_cast<int>(v);
+}
+// v limited to [-kMaxIntCoord, kMaxIntCoord], NaN to -kMaxIntCoord (for clamped lookups).
+inline double clamp_coord(double v) {
+  return v >= -kMaxIntCoord ? std::min(v, kMaxIntCoord) : -kMaxIntCoord;
+}
 
 RefineResult refine_pose_conics(const Eigen::Matrix3d& K, const Eigen::Isometry3d& X_CP0,
                                 const std::vector<ConicObservation>& obs, int points_per_ellipse,
