@@ -23,9 +23,18 @@ for t in fuzz_scenario:scenario fuzz_target_camera:target_camera fuzz_detector:d
   corpus="tests/fuzz/corpus/${t##*:}"
   mkdir -p "$work/$exe" "$work/$exe-artifacts"
   echo "fuzz: $exe for ${SECONDS_EACH} s on $corpus"
-  # FUZZ_SEED fixes libFuzzer's random seed (CI: the same input sequence every run).
+  # FUZZ_SEED fixes libFuzzer's random seed; FUZZ_RUNS=N (with FUZZ_SEED) makes each target
+  # run exactly its first N inputs, so CI's fuzz step is the same input sequence on every
+  # machine and `FUZZ_SEED=1 FUZZ_RUNS=1 bash tools/fuzz.sh ...` reproduces it (SECONDS then
+  # only caps the time). Without FUZZ_RUNS the time alone decides how far each target gets.
   seed_opt=()
   if [[ -n "${FUZZ_SEED:-}" ]]; then seed_opt=(-seed="$FUZZ_SEED"); fi
+  if [[ -n "${FUZZ_RUNS:-}" ]]; then
+    case "$exe" in
+      fuzz_scenario) n=1000 ;; fuzz_target_camera) n=20000 ;; *) n=1000 ;;
+    esac
+    seed_opt+=(-runs="$((n * FUZZ_RUNS))")
+  fi
   if ! "build-san/tests/fuzz/$exe" "${seed_opt[@]}" -max_total_time="$SECONDS_EACH" -timeout=30 -rss_limit_mb=4096 \
       -max_len=262144 -print_final_stats=1 -artifact_prefix="$work/$exe-artifacts/" \
       "$work/$exe" "$corpus" > "$work/$exe.log" 2>&1; then

@@ -166,11 +166,13 @@ TEST(EstimatorBench, SmallSyntheticSweepWritesAllKeys) {
   const nlohmann::json j = test::parse_json(run_estimator_bench(
       make_synthetic_bench_renderer(g, cam, X_WP), X_WP, g, cam, VisionParams{}, p));
   for (const char* method : {"ours", "apriltag", "aruco", "aruco.subpix"}) {
-    for (const char* group : {"overall", "by_altitude_m", "by_blur_px"}) {
+    for (const char* group : {"overall", "by_altitude_m", "by_blur_px", "by_tilt_deg",
+                              "rings_resolvable"}) {
       EXPECT_NO_THROW(test::at_path(j, std::string(method) + "." + group)) << method << group;
     }
     for (const char* key : {"detection_rate", "false_positive_rate", "centre_err_px_mean",
                             "reproj_err_px_mean", "reproj_err_px_var", "pos_err_m_mean",
+                            "pos_err_m_p95", "pos_err_m_max", "gross_poses",
                             "rot_err_deg_mean", "ms_per_frame_median"}) {
       EXPECT_NO_THROW(test::at_path(j, std::string(method) + ".overall." + key))
           << method << " " << key;
@@ -190,6 +192,12 @@ TEST(EstimatorBench, SmallSyntheticSweepWritesAllKeys) {
   const double pos = test::number_at(j, "ours.overall.pos_err_m_mean");
   EXPECT_GE(pos, 0.0);
   EXPECT_LT(pos, 0.01);
+  // Views of 2.5-5 m at tilts <= 30 deg: every ring set is tens of px wide, so all four views
+  // are in the resolvable group, and none of ours is a gross pose (5 % of the range).
+  EXPECT_DOUBLE_EQ(test::number_at(j, "ours.rings_resolvable.frames"), 4.0);
+  EXPECT_DOUBLE_EQ(test::number_at(j, "ours.overall.gross_poses"), 0.0);
+  EXPECT_LE(test::number_at(j, "ours.overall.pos_err_m_max"), 0.01);
+  EXPECT_TRUE(test::at_path(j, "ours.by_tilt_deg").contains("30")) << j.dump();
 }
 
 }  // namespace
