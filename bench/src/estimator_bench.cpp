@@ -306,6 +306,7 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
   RingTargetDetector ours(cam, g, single);
   AprilTagDetector apriltag;
   MethodStats s_ours, s_tag, s_aruco, s_aruco_sub;
+  Json views = Json::array();
   std::mt19937_64 rng(p.seed);
   std::uniform_real_distribution<double> U(0.0, 1.0);
 
@@ -378,7 +379,8 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
             if (d2.used_roi) ms_track = ms2;
           }
           const auto truth = project_P(cam, X_CP, ring_centres_P);
-          const bool resolved = min_ring_extent_px(cam, X_CP, g) >= kResolvablePx;
+          const double ring_px = min_ring_extent_px(cam, X_CP, g);
+          const bool resolved = ring_px >= kResolvablePx;
           s_ours.add(alt, blur, tilt, resolved, [&](Stats& s) {
             add_ours(s, d, ms_ours, X_CP, truth);
             if (d.detected && std::isfinite(ms_track)) s.ms_tracking.push_back(ms_track);
@@ -393,6 +395,22 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
           score_square(s_aruco, da, ms, X_CP, alt, blur, tilt, resolved);
           const PeerDetection ds = timed([&] { return detect_aruco(aruco, cam, g, true); }, ms);
           score_square(s_aruco_sub, ds, ms, X_CP, alt, blur, tilt, resolved);
+          // One record a view, to find out why a view was missed.
+          Json v = Json::object();
+          v["altitude_m"] = alt;
+          v["tilt_deg"] = tilt;
+          v["blur_px"] = blur;
+          v["yaw_deg"] = yaw;
+          v["azimuth_deg"] = az;
+          v["min_ring_px"] = ring_px;
+          v["ours"] = d.detected;
+          v["ours_status"] = to_string(d.status);
+          v["ours_reason"] = d.reason;
+          v["ours_pos_err_m"] =
+              d.detected ? (d.X_CP.translation() - X_CP.translation()).norm() : kNaN;
+          v["apriltag"] = dt.detected;
+          v["aruco"] = da.detected;
+          views.push_back(std::move(v));
         }
       }
     }
@@ -687,6 +705,7 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
   cfg["ms_per_frame"] = "thread CPU time of one detection (+ PnP), one thread";
   cfg["reproj_err"] = "per-frame RMS of detected points vs the fitted pose (eq. 30 / N, sqrt)";
   out["config"] = cfg;
+  out["views"] = views;
   return json_text(out);
 }
 
