@@ -13,6 +13,7 @@
 #include <limits>
 
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "lander/estimator/camera_cv.h"
 #include "lander/estimator/vision_detector.h"
@@ -410,6 +411,12 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
               d.detected ? (d.X_CP.translation() - X_CP.translation()).norm() : kNaN;
           v["apriltag"] = dt.detected;
           v["aruco"] = da.detected;
+          if (!d.detected && !p.save_misses_dir.empty()) {
+            std::vector<unsigned char> png;
+            cv::imencode(".png", rings, png);
+            sim::write_file_atomic(p.save_misses_dir + "/view_" + std::to_string(views.size()) + ".png",
+                                   std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+          }
           views.push_back(std::move(v));
         }
       }

@@ -11,7 +11,9 @@
 // JSON and as a table on stderr.
 #include <cmath>
 #include <iostream>
+#include <filesystem>
 #include <map>
+#include <sstream>
 
 #include <opencv2/imgproc.hpp>
 
@@ -29,7 +31,8 @@ namespace {
 
 constexpr const char* kUsage =
     "estimator --json FILE [--quick] [--synthetic] [--empty-frames N] [--yaws N]\n"
-    "          [--shadows | --no-shadows | --shadows-only]\n"
+    "          [--shadows | --no-shadows | --shadows-only] [--altitudes A,..] [--tilts T,..]\n"
+    "          [--blurs B,..] [--save-misses DIR]\n"
     "  full sweep: views (altitude x tilt x blur) + empty frames + the shadow condition\n"
     "  (hard shadow bands 0.05/0.2/0.5/1 m wide at 20 % and 50 % light across the target,\n"
     "  1.5-10 m, tilt 0-45 deg, same frames for ours, AprilTag and ArUco; JSON `shadows`,\n"
@@ -37,7 +40,7 @@ constexpr const char* kUsage =
     "  --shadows-only: the shadow condition alone; --no-shadows: leave it out";
 
 int bench_estimator(const Args& args) {
-  ArgParser a(args, {"json", "empty-frames", "yaws"},
+  ArgParser a(args, {"json", "empty-frames", "yaws", "altitudes", "tilts", "blurs", "save-misses"},
               {"quick", "synthetic", "shadows", "no-shadows", "shadows-only"});
   if (!a.has("json")) throw UsageError("usage: lander bench estimator " + std::string(kUsage));
   if (a.flag("no-shadows") && (a.flag("shadows") || a.flag("shadows-only"))) {
@@ -52,6 +55,35 @@ int bench_estimator(const Args& args) {
     bp.blur_px = {0.0, 5.0};
     bp.yaws_per_view = 1;
     bp.empty_frames = 50;
+  }
+  // --altitudes 2.5,5 --tilts 60,70,75 --blurs 0,12: a part of the view sweep (a diagnosis
+  // of one condition without the whole sweep).
+  auto list = [&](const char* name, std::vector<double>& out) {
+    if (!a.has(name)) return;
+    out.clear();
+    std::string v = a.value(name), item;
+    std::istringstream is(v);
+    while (std::getline(is, item, ',')) {
+      std::size_t used = 0;
+      double x = 0.0;
+      try {
+        x = std::stod(item, &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used == 0 || used != item.size() || !std::isfinite(x)) {
+        throw UsageError(std::string("--") + name + ": '" + item + "' is not a number (give a comma-separated list)");
+      }
+      out.push_back(x);
+    }
+    if (out.empty()) throw UsageError(std::string("--") + name + ": empty list");
+  };
+  list("altitudes", bp.altitudes_m);
+  list("tilts", bp.tilts_deg);
+  list("blurs", bp.blur_px);
+  if (a.has("save-misses")) {
+    bp.save_misses_dir = a.value("save-misses");
+    std::filesystem::create_directories(bp.save_misses_dir);
   }
   bp.empty_frames = static_cast<int>(a.integer("empty-frames", bp.empty_frames, 0));
   bp.yaws_per_view = static_cast<int>(a.integer("yaws", bp.yaws_per_view, 1));

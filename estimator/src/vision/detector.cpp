@@ -86,6 +86,26 @@ bool supported_image(const cv::Mat& img) {
   return (ch == 1 || ch == 3 || ch == 4) && (img.depth() == CV_8U || img.depth() == CV_16U);
 }
 
+// A pose from OpenCV's rotation vector and translation.
+Eigen::Isometry3d pose_from_cv(const cv::Mat& rvec, const cv::Mat& tvec) {
+  cv::Mat R;
+  cv::Rodrigues(rvec, R);
+  Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) X.linear()(r, c) = R.at<double>(r, c);
+    X.translation()(r) = tvec.at<double>(r);
+  }
+  return X;
+}
+
+// Three-set pose: another P3P solution whose refined conic RMS is within this factor of the
+// best one's, and which is a different pose, makes the frame ambiguous (no pose reported).
+// Wrong P3P branches refine to conic residuals of several px where the right one fits to a
+// few tenths; 3x keeps a clear margin between them.
+constexpr double kThreeSetMinResidualRatio = 3.0;
+
+bool poses_agree(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const VisionParams& p);
+
 // 8-bit grey frame in which at least `region` is converted: 8-bit grey input is used as is;
 // otherwise only `region` of a per-thread full-size buffer is converted (tracking then pays
 // for the ROI only).
@@ -271,22 +291,22 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
     return fail(VisionStatus::NoRingIdentified,
                 std::to_string(pairs.size()) + " concentric pairs, no cross-ratio (eq. 9) matched");
   }
-  if (static_cast<int>(chosen.size()) < p.min_rings) {
-    return fail(VisionStatus::TooFewRings, std::to_string(chosen.size()) +
-                                               " ring sets identified, need " +
-                                               std::to_string(p.min_rings));
-  }
-
   // Initial pose: IPPE (Collins and Bartoli 2014) - made for planar targets, closed form,
   // returns both solutions of the planar ambiguity so we can keep the consistent one, and
   // is exact with four points; SQPnP is general-purpose (3D) and slower for our 4-7 points.
   const Eigen::Matrix3d K = cam.K();
   const cv::Mat Kcv = (cv::Mat_<double>(3, 3) << K(0, 0), 0, K(0, 2), 0, K(1, 1), K(1, 2), 0, 0, 1);
-  Eigen::Isometry3d X0 = Eigen::Isometry3d::Identity();
-  for (;;) {
+  // IPPE on the identified centres `set` (indices into pairs): the solution in front with the
+  // smallest largest centre reprojection error; false if none is in front.
+  struct Fit {
+    Eigen::Isometry3d X{Eigen::Isometry3d::Identity()};
+    double max_err{1e18};
+    std::vector<double> err;
+  };
+  auto ippe = [&](const std::vector<int>& set, Fit& fit) -> bool {
     std::vector<cv::Point3d> obj;
     std::vector<cv::Point2d> img;
-    for (int k : chosen) {
+    for (int k : set) {
       const auto& c = target.ring(pairs[k].ring_id).centre_P_m;
       obj.emplace_back(c.x(), c.y(), 0.0);
       img.emplace_back(pairs[k].centre.x(), pairs[k].centre.y());
@@ -294,45 +314,134 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
     std::vector<cv::Mat> rvecs, tvecs;
     try {
       cv::solvePnPGeneric(obj, img, Kcv, cv::noArray(), rvecs, tvecs, false, cv::SOLVEPNP_IPPE);
-    } catch (const cv::Exception& e) {
-      return fail(VisionStatus::PoseFailed, std::string("IPPE failed: ") + e.what());
+    } catch (const cv::Exception&) {
+      return false;
     }
-    double best_max = 1e18;
-    std::vector<double> best_err;
+    fit = Fit{};
     for (std::size_t s = 0; s < rvecs.size(); ++s) {
-      cv::Mat R;
-      cv::Rodrigues(rvecs[s], R);
-      Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
-      for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c) X.linear()(r, c) = R.at<double>(r, c);
-        X.translation()(r) = tvecs[s].at<double>(r);
-      }
+      const Eigen::Isometry3d X = pose_from_cv(rvecs[s], tvecs[s]);
       if (X.translation().z() <= 0) continue;
       std::vector<double> err;
       double mx = 0.0;
-      for (int k : chosen) {
+      for (int k : set) {
         err.push_back((project(K, X, target.ring(pairs[k].ring_id).centre_P_m) - pairs[k].centre)
                           .norm());
         mx = std::max(mx, err.back());
       }
-      if (mx < best_max) {
-        best_max = mx;
-        best_err = err;
-        X0 = X;
+      if (mx < fit.max_err) {
+        fit.max_err = mx;
+        fit.err = err;
+        fit.X = X;
       }
     }
-    if (best_err.empty()) return fail(VisionStatus::PoseFailed, "IPPE gave no solution in front");
-    if (best_max <= p.max_centre_reproj_px) break;
-    // Hexagon layout check: drop the centre least consistent with the others and retry.
-    if (static_cast<int>(chosen.size()) <= p.min_rings) {
-      fill_centres();
-      return fail(VisionStatus::PoseFailed,
-                  "identified centres inconsistent with the ring layout (max error " +
-                      std::to_string(best_max) + " px)");
+    return !fit.err.empty();
+  };
+  // Pose from three identified sets: P3P on their centres (up to four solutions), each
+  // solution in front of the camera with the target facing it refined on the six conics.
+  auto three_set_pose = [&](const std::vector<int>& set,
+                            std::string& why) -> std::optional<Eigen::Isometry3d> {
+    std::vector<cv::Point3d> obj;
+    std::vector<cv::Point2d> img;
+    std::vector<vision_internal::ConicObservation> o3;
+    for (int k : set) {
+      const RingSet& ring = target.ring(pairs[k].ring_id);
+      obj.emplace_back(ring.centre_P_m.x(), ring.centre_P_m.y(), 0.0);
+      img.emplace_back(pairs[k].centre.x(), pairs[k].centre.y());
+      o3.push_back({ring.centre_P_m, ring.outer_radius_m, &cands[pairs[k].outer].points});
+      o3.push_back({ring.centre_P_m, ring.inner_radius_m, &cands[pairs[k].inner].points});
     }
-    const auto worst = std::max_element(best_err.begin(), best_err.end()) - best_err.begin();
-    used_ellipse[pairs[chosen[worst]].outer] = used_ellipse[pairs[chosen[worst]].inner] = false;
-    chosen.erase(chosen.begin() + worst);
+    std::vector<cv::Mat> rvecs, tvecs;
+    try {
+      cv::solveP3P(obj, img, Kcv, cv::noArray(), rvecs, tvecs, cv::SOLVEPNP_P3P);
+    } catch (const cv::Exception&) {
+      why = "; three-set pose: P3P failed";
+      return std::nullopt;
+    }
+    std::vector<std::pair<double, Eigen::Isometry3d>> fits;  // conic RMS, refined pose
+    for (std::size_t s = 0; s < rvecs.size(); ++s) {
+      const Eigen::Isometry3d X = pose_from_cv(rvecs[s], tvecs[s]);
+      if (!(X.translation().z() > 0) || X.linear().col(2).dot(X.translation()) >= 0) continue;
+      const auto r = vision_internal::refine_pose_conics(K, X, o3, p.refine_points_per_ellipse,
+                                                         p.refine_max_iter);
+      if (r.ok && std::isfinite(r.rms_px) && r.X_CP.translation().z() > 0) {
+        fits.emplace_back(r.rms_px, r.X_CP);
+      }
+    }
+    std::sort(fits.begin(), fits.end(),
+              [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::ostringstream os;
+    if (fits.empty()) {
+      why = "; three-set pose: no P3P solution in front refined";
+      return std::nullopt;
+    }
+    if (!(fits[0].first <= p.max_edge_residual_px)) {
+      os << "; three-set pose: conic residual " << fits[0].first << " px (gate "
+         << p.max_edge_residual_px << " px)";
+      why = os.str();
+      return std::nullopt;
+    }
+    for (std::size_t i = 1; i < fits.size(); ++i) {
+      if (!poses_agree(fits[0].second, fits[i].second, p) &&
+          fits[i].first < kThreeSetMinResidualRatio * fits[0].first) {
+        os << "; three-set pose ambiguous: conic residuals " << fits[0].first << " and "
+           << fits[i].first << " px for two different poses";
+        why = os.str();
+        return std::nullopt;
+      }
+    }
+    return fits[0].second;
+  };
+  Eigen::Isometry3d X0 = Eigen::Isometry3d::Identity();
+  if (static_cast<int>(chosen.size()) < p.min_rings) {
+    // Three sets (grazing views, far range, the frame's edge): P3P's up to four poses, each
+    // refined on the six conics; the one that fits them is kept if it fits well and clearly
+    // better than the others (the conics decide P3P's ambiguity; three points alone always
+    // reproject exactly).
+    std::optional<Eigen::Isometry3d> X3;
+    std::string why3;
+    if (p.three_ring_pose && chosen.size() == 3) X3 = three_set_pose(chosen, why3);
+    if (!X3) {
+      return fail(VisionStatus::TooFewRings, std::to_string(chosen.size()) +
+                                                 " ring sets identified, need " +
+                                                 std::to_string(p.min_rings) + why3);
+    }
+    X0 = *X3;
+  } else {
+    for (;;) {
+      Fit fit;
+      const bool ok = ippe(chosen, fit);
+      if (ok && fit.max_err <= p.max_centre_reproj_px) {
+        X0 = fit.X;
+        break;
+      }
+      // Hexagon layout check: drop the centre whose removal leaves the most consistent rest
+      // (a misidentified centre can pull the fit so that a correct one has the largest
+      // error, or put both IPPE solutions behind the camera), and retry.
+      if (static_cast<int>(chosen.size()) <= p.min_rings) {
+        fill_centres();
+        return ok ? fail(VisionStatus::PoseFailed,
+                         "identified centres inconsistent with the ring layout (max error " +
+                             std::to_string(fit.max_err) + " px)")
+                  : fail(VisionStatus::PoseFailed, "IPPE gave no solution in front");
+      }
+      std::size_t drop = 0;
+      double best = 1e18;
+      for (std::size_t i = 0; i < chosen.size(); ++i) {
+        std::vector<int> rest = chosen;
+        rest.erase(rest.begin() + static_cast<std::ptrdiff_t>(i));
+        Fit f;
+        if (ippe(rest, f) && f.max_err < best) {
+          best = f.max_err;
+          drop = i;
+        }
+      }
+      if (best >= 1e18) {
+        fill_centres();
+        return fail(VisionStatus::PoseFailed, "IPPE gave no solution in front");
+      }
+      used_ellipse[pairs[chosen[drop]].outer] = used_ellipse[pairs[chosen[drop]].inner] = false;
+      chosen.erase(chosen.begin() + static_cast<std::ptrdiff_t>(drop));
+    }
   }
   // Use the layout to recover pairs whose ratio was ambiguous: an unused concentric pair at
   // the predicted centre of an unidentified ring set with a ratio within twice the tolerance.

@@ -58,6 +58,9 @@ struct VisionParams {
 
   // ---- pose (eq. 10-16) ----
   int min_rings{4};                  ///< identified centres needed for a pose (planar PnP)
+  bool three_ring_pose{true};        ///< with exactly three sets identified: P3P on their
+                                     ///< centres, the solution that fits the six conics (and
+                                     ///< clearly better than any other P3P solution)
   double max_centre_reproj_px{3.0};  ///< centre outlier gate after the initial PnP (px)
   int refine_max_iter{30};           ///< Levenberg-Marquardt iteration cap
   int refine_points_per_ellipse{24};  ///< edge points per ellipse in the conic cost
@@ -125,6 +128,7 @@ void visit_fields(V& v, VisionParams& p) {
   v("harmonic_max_iter", p.harmonic_max_iter);
   v("ratio_tol", p.ratio_tol);
   v("min_rings", p.min_rings);
+  v("three_ring_pose", p.three_ring_pose);
   v("max_centre_reproj_px", p.max_centre_reproj_px);
   v("refine_max_iter", p.refine_max_iter);
   v("refine_points_per_ellipse", p.refine_points_per_ellipse);
