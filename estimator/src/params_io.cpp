@@ -3,6 +3,8 @@
 #include <yaml-cpp/eventhandler.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <sstream>
@@ -263,6 +265,17 @@ std::string yaml_to_string(const YAML::Node& node) {
   out.SetDoublePrecision(std::numeric_limits<double>::max_digits10);
   out << node;
   return std::string(out.c_str()) + "\n";
+}
+
+std::string models_dir() {
+  const char* env = std::getenv("LANDER_MODELS_DIR");
+  if (env == nullptr || *env == '\0') return LANDER_MODELS_DIR;
+  std::error_code ec;
+  if (!std::filesystem::is_directory(env, ec)) {
+    throw ConfigError(std::string("LANDER_MODELS_DIR='") + env +
+                      "' (environment) is not a directory; unset it to use " + LANDER_MODELS_DIR);
+  }
+  return env;
 }
 
 }  // namespace lander

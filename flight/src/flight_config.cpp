@@ -32,7 +32,7 @@ FlightConfig FlightConfig::load(const std::string& path) {
   return c;
 }
 
-std::string default_flight_file() { return std::string(LANDER_MODELS_DIR) + "/flight.yaml"; }
+std::string default_flight_file() { return models_dir() + "/flight.yaml"; }
 
 std::string resolve_flight_file(const std::string& file_value, const std::string& scenario_file) {
   namespace fs = std::filesystem;

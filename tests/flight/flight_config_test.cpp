@@ -1,4 +1,6 @@
 // The flight software's own configuration (flight/): its parameter file and how it loads.
+#include <cstdlib>
+#include <filesystem>
 #include <fstream>
 
 #include <gtest/gtest.h>
@@ -27,6 +29,28 @@ TEST(FlightConfig, ModelsFileEqualsInClassDefaults) {
   const FlightConfig loaded = FlightConfig::load(default_flight_file());
   EXPECT_EQ(yaml_of(loaded), yaml_of(FlightConfig{}));
   EXPECT_EQ(loaded.file, default_flight_file());
+}
+
+// Given LANDER_MODELS_DIR, the default configuration files come from there (a binary away
+// from its source tree, or an old binary run against its own models); a value that is not a
+// directory is an error naming the variable, never a silent fall-back.
+TEST(FlightConfig, ModelsDirFromTheEnvironment) {
+  const std::string dir = ::testing::TempDir() + "models_env";
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir + "/flight.yaml") << "controller:\n  vehicle:\n    mass_kg: 3.25\n";
+  ASSERT_EQ(setenv("LANDER_MODELS_DIR", dir.c_str(), 1), 0);
+  EXPECT_EQ(models_dir(), dir);
+  EXPECT_EQ(default_flight_file(), dir + "/flight.yaml");
+  EXPECT_DOUBLE_EQ(FlightConfig::load(default_flight_file()).controller.vehicle.mass_kg, 3.25);
+  ASSERT_EQ(setenv("LANDER_MODELS_DIR", (dir + "/flight.yaml").c_str(), 1), 0);
+  try {
+    models_dir();
+    ADD_FAILURE() << "a file as LANDER_MODELS_DIR was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("LANDER_MODELS_DIR"), std::string::npos) << e.what();
+  }
+  ASSERT_EQ(unsetenv("LANDER_MODELS_DIR"), 0);
+  EXPECT_EQ(models_dir(), std::string(LANDER_MODELS_DIR));
 }
 
 TEST(FlightConfig, RelativeTargetIsTakenFromTheFilesFolder) {

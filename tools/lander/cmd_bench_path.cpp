@@ -117,7 +117,7 @@ int bench_path(const Args& args) {
     throw UsageError("usage: lander bench path --json FILE [--frames N] [--work-width PX]");
   const int n = static_cast<int>(a.integer("frames", 200, 1));
   const int main_width = static_cast<int>(a.integer("work-width", 320, 32));
-  const CameraModel cam = load_camera_model(std::string(LANDER_MODELS_DIR) + "/camera_default.yaml");
+  const CameraModel cam = load_camera_model(models_dir() + "/camera_default.yaml");
   // Extractors: the requested work width first, then the sweep (params validated here: a bad
   // --work-width is a ConfigError naming work_width_px, exit code 2).
   std::vector<int> widths = {main_width};
@@ -173,7 +173,7 @@ int bench_path(const Args& args) {
       "and heading, anti-aliased, sensor noise sigma 4; seed 20230321";
   j["frame_count"] = n;
   j["image"] = {{"width_px", cam.width_px}, {"height_px", cam.height_px}};
-  j["calibration"] = std::string(LANDER_MODELS_DIR) + "/camera_default.yaml";
+  j["calibration"] = models_dir() + "/camera_default.yaml";
   j["params"] = "PathExtractorParams defaults except work_width_px";
   const nlohmann::ordered_json main_j = width_json(0);
   j["work_width_px"] = main_j["work_width_px"];

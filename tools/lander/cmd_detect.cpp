@@ -22,7 +22,7 @@ int run_detect(const Args& args) {
   }
   if (!ap.has("camera")) throw UsageError("--camera CALIB.yaml is required");
   const std::string image_path = ap.positional()[0];
-  const std::string target_path = ap.value("target", LANDER_MODELS_DIR "/target.yaml");
+  const std::string target_path = ap.value("target", models_dir() + "/target.yaml");
   for (const auto& p : {image_path, ap.value("camera"), target_path}) {
     if (!std::filesystem::is_regular_file(p)) throw ConfigError("no such file: " + p);
   }

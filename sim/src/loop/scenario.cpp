@@ -53,7 +53,7 @@ void Scenario::validate() const {
 
 Scenario Scenario::defaults() {
   Scenario s;
-  const std::string vehicle_yaml = std::string(LANDER_MODELS_DIR) + "/vehicle.yaml";
+  const std::string vehicle_yaml = models_dir() + "/vehicle.yaml";
   read_params(load_yaml_file(vehicle_yaml), vehicle_yaml, s.vehicle.model);
   s.flight = flight::FlightConfig::load(flight::default_flight_file());
   return s;

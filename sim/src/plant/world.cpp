@@ -82,12 +82,12 @@ World::World(const WorldParams& params, const CameraModel& camera) : camera_(cam
   // as models/world_route.xml (world.xml plus the placeholders, which would cost every other
   // run ~0.1 ms a physics step). A custom model must hold them itself.
   const bool painted = params.route.present() || !params.route.paint.empty();
-  const std::string default_world = std::string(LANDER_MODELS_DIR) + "/world.xml";
+  const std::string default_world = models_dir() + "/world.xml";
   std::error_code ec;
   const bool is_default = params.model_path == default_world ||
                           std::filesystem::equivalent(params.model_path, default_world, ec);
   const std::string model_path =
-      painted && is_default ? std::string(LANDER_MODELS_DIR) + "/world_route.xml" : params.model_path;
+      painted && is_default ? models_dir() + "/world_route.xml" : params.model_path;
   if (!std::ifstream(model_path)) {
     throw ConfigError(model_path + ": cannot open model file");
   }

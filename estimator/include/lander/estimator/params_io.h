@@ -213,6 +213,13 @@ class YamlWriter {
 // than one document.
 YAML::Node load_yaml_file(const std::string& path);
 
+// The directory of the default configuration files (flight.yaml, world.xml, target.yaml,
+// vehicle.yaml, ...): the environment variable LANDER_MODELS_DIR if set (a binary copied or
+// installed away from its source tree, or an older binary run against its own models), else
+// the source tree's models/ the binary was built from. Throws ConfigError naming the variable
+// if it is set but not a directory.
+std::string models_dir();
+
 // Applies `node` on top of `p`'s defaults, rejects unknown and duplicate keys, then calls
 // p.validate(); its errors are located in `file` (locate_config_error). A null node applies
 // nothing (the defaults are validated).

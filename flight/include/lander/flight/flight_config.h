@@ -48,7 +48,7 @@ struct FlightConfig {
   // The parameter file these values start from (an absolute path once loaded; the resolved
   // scenario names it). Empty: the in-class defaults, which equal models/flight.yaml.
   std::string file;
-  std::string target_path{std::string(LANDER_MODELS_DIR) + "/target.yaml"};  ///< target YAML
+  std::string target_path{models_dir() + "/target.yaml"};  ///< target YAML
   CameraModel camera;              ///< camera calibration: intrinsics and distortion
   CameraMount mount;               ///< calibrated camera mount X_BC
   EstimatorParams estimator;

@@ -45,8 +45,8 @@ void visit_fields(V& v, LightParams& p) {
 }
 
 struct WorldParams {
-  std::string model_path{std::string(LANDER_MODELS_DIR) + "/world.xml"};    ///< MJCF world
-  std::string target_path{std::string(LANDER_MODELS_DIR) + "/target.yaml"};  ///< target YAML
+  std::string model_path{models_dir() + "/world.xml"};    ///< MJCF world
+  std::string target_path{models_dir() + "/target.yaml"};  ///< target YAML
   double physics_dt_s{0.001};      ///< physics step (s); 1 kHz default
   std::uint64_t ground_seed{7};    ///< seed of the procedural ground texture
   LightParams light;
