@@ -47,12 +47,7 @@ bool square_pnp(PeerDetection& d, const CameraModel& cam, const TargetGeometry& 
   double ss = 0;
   for (int i = 0; i < 4; ++i) ss += std::pow(cv::norm(proj[i] - img[i]), 2);
   d.reproj_err_px = std::sqrt(ss / 4);
-  cv::Mat R;
-  cv::Rodrigues(rvec, R);
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) d.X_CP.linear()(r, c) = R.at<double>(r, c);
-    d.X_CP.translation()(r) = tvec.at<double>(r);
-  }
+  d.X_CP = pose_from_cv(rvec, tvec);
   return true;
 }
 

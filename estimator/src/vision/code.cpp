@@ -832,13 +832,7 @@ CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
   Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(JtJ);
   if (!lu.isInvertible()) return fail("singular corner Jacobian");
   d.cov = sigma2 * lu.inverse();
-  cv::Mat R;
-  cv::Rodrigues(rvec, R);
-  d.X_CP = Eigen::Isometry3d::Identity();
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) d.X_CP.linear()(r, c) = R.at<double>(r, c);
-    d.X_CP.translation()(r) = tvec.at<double>(r);
-  }
+  d.X_CP = pose_from_cv(rvec, tvec);
   for (std::size_t i = 0; i < obj.size(); ++i) {
     d.corners_P_m.emplace_back(obj[i].x, obj[i].y);
     d.corners_px.emplace_back(ip[i].x, ip[i].y);

@@ -86,18 +86,6 @@ bool supported_image(const cv::Mat& img) {
   return (ch == 1 || ch == 3 || ch == 4) && (img.depth() == CV_8U || img.depth() == CV_16U);
 }
 
-// A pose from OpenCV's rotation vector and translation.
-Eigen::Isometry3d pose_from_cv(const cv::Mat& rvec, const cv::Mat& tvec) {
-  cv::Mat R;
-  cv::Rodrigues(rvec, R);
-  Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) X.linear()(r, c) = R.at<double>(r, c);
-    X.translation()(r) = tvec.at<double>(r);
-  }
-  return X;
-}
-
 // Three-set pose: another P3P solution whose refined conic RMS is within this factor of the
 // best one's, and which is a different pose, makes the frame ambiguous (no pose reported).
 // Wrong P3P branches refine to conic residuals of several px where the right one fits to a
