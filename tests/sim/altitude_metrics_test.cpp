@@ -34,6 +34,24 @@ TEST(AltitudeMetrics, RmseAndMaxPerBand) {
   EXPECT_NEAR(m.stats("baro", AltitudeBand::kAll).max_abs_m, 0.4, 1e-15);
 }
 
+// Given the same samples added in a different order of first appearance (the overlapped
+// vision schedule records a frame's result when its worker is joined, at a step that varies
+// with thread timing), the JSON text is the same: sensors appear in a fixed order.
+TEST(AltitudeMetrics, JsonOrderDoesNotDependOnWhichSensorCameFirst) {
+  AltitudeMetrics a, b;
+  a.add("baro", 0.5, 8.0);
+  a.add("vision", 0.01, 8.0);
+  a.add("fused", 0.02, 8.0);
+  b.add("baro", 0.5, 8.0);
+  b.add("fused", 0.02, 8.0);
+  b.add("vision", 0.01, 8.0);
+  EXPECT_EQ(a.json().dump(), b.json().dump());
+  const nlohmann::ordered_json ja = a.json();
+  std::vector<std::string> keys;
+  for (const auto& [k, v] : ja.items()) keys.push_back(k);
+  EXPECT_EQ(keys, (std::vector<std::string>{"baro", "vision", "fused"}));
+}
+
 TEST(AltitudeMetrics, JsonHasTheIssueKeys) {
   AltitudeMetrics m;
   m.add("fused", 0.01, 5.0);

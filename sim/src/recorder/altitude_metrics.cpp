@@ -1,5 +1,8 @@
 #include "lander/sim/recorder/altitude_metrics.h"
 
+#include <algorithm>
+#include <iterator>
+
 #include <cmath>
 #include <limits>
 
@@ -39,7 +42,22 @@ std::vector<std::string> AltitudeMetrics::sensors() const {
 nlohmann::ordered_json AltitudeMetrics::json() const {
   static const char* kBandNames[3] = {"all", "above_3m", "below_3m"};
   nlohmann::ordered_json out = nlohmann::ordered_json::object();
-  for (const Entry& e : entries_) {
+  // A fixed order, not the order first added: with the overlapped vision schedule a frame's
+  // result is recorded when the worker is joined, whose step varies with thread timing, so
+  // "vision" could come first in one run and after "fused" in an identical one.
+  static const char* kOrder[] = {"baro", "gps", "ultrasonic", "vision", "fused"};
+  auto rank = [&](const std::string& n) {
+    for (std::size_t i = 0; i < std::size(kOrder); ++i) {
+      if (n == kOrder[i]) return i;
+    }
+    return std::size(kOrder);
+  };
+  std::vector<const Entry*> order;
+  for (const Entry& e : entries_) order.push_back(&e);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](const Entry* a, const Entry* b) { return rank(a->name) < rank(b->name); });
+  for (const Entry* ep : order) {
+    const Entry& e = *ep;
     nlohmann::ordered_json sensor;
     for (int b = 0; b < 3; ++b) {
       const ErrorStats& s = e.band[b];
