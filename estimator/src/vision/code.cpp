@@ -761,8 +761,7 @@ CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
   if (static_cast<int>(obj.size()) < p.code_min_corners) {
     return fail(std::to_string(obj.size()) + " corners refined");
   }
-  const Eigen::Matrix3d K = cam.K();
-  const cv::Mat Kcv = (cv::Mat_<double>(3, 3) << K(0, 0), 0, K(0, 2), 0, K(1, 1), K(1, 2), 0, 0, 1);
+  const cv::Mat Kcv = camera_matrix_cv(cam);
   cv::Mat rvec, tvec;
   auto solve = [&]() -> bool {
     std::vector<cv::Mat> rvecs, tvecs;

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <iomanip>
+#include <limits>
 #include <optional>
 #include <sstream>
 
@@ -283,46 +284,54 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
   // returns both solutions of the planar ambiguity so we can keep the consistent one, and
   // is exact with four points; SQPnP is general-purpose (3D) and slower for our 4-7 points.
   const Eigen::Matrix3d K = cam.K();
-  const cv::Mat Kcv = (cv::Mat_<double>(3, 3) << K(0, 0), 0, K(0, 2), 0, K(1, 1), K(1, 2), 0, 0, 1);
-  // IPPE on the identified centres `set` (indices into pairs): the solution in front with the
-  // smallest largest centre reprojection error; false if none is in front.
-  struct Fit {
-    Eigen::Isometry3d X{Eigen::Isometry3d::Identity()};
-    double max_err{1e18};
-    std::vector<double> err;
-  };
-  auto ippe = [&](const std::vector<int>& set, Fit& fit) -> bool {
-    std::vector<cv::Point3d> obj;
-    std::vector<cv::Point2d> img;
+  const cv::Mat Kcv = camera_matrix_cv(cam);
+  // The identified centres of `set` (indices into pairs): P points and undistorted pixels.
+  auto centre_points = [&](const std::vector<int>& set, std::vector<cv::Point3d>& obj,
+                           std::vector<cv::Point2d>& img) {
     for (int k : set) {
       const auto& c = target.ring(pairs[k].ring_id).centre_P_m;
       obj.emplace_back(c.x(), c.y(), 0.0);
       img.emplace_back(pairs[k].centre.x(), pairs[k].centre.y());
     }
+  };
+  // The two circles of each set of `set` with their edge points, for the conic cost.
+  auto conic_observations = [&](const std::vector<int>& set) {
+    std::vector<vision_internal::ConicObservation> obs;
+    for (int k : set) {
+      const RingSet& ring = target.ring(pairs[k].ring_id);
+      obs.push_back({ring.centre_P_m, ring.outer_radius_m, &cands[pairs[k].outer].points});
+      obs.push_back({ring.centre_P_m, ring.inner_radius_m, &cands[pairs[k].inner].points});
+    }
+    return obs;
+  };
+  // IPPE on the identified centres `set`: the solution in front with the smallest largest
+  // centre reprojection error; none if no solution is in front.
+  struct Fit {
+    Eigen::Isometry3d X;
+    double max_err;
+  };
+  auto ippe = [&](const std::vector<int>& set) -> std::optional<Fit> {
+    std::vector<cv::Point3d> obj;
+    std::vector<cv::Point2d> img;
+    centre_points(set, obj, img);
     std::vector<cv::Mat> rvecs, tvecs;
     try {
       cv::solvePnPGeneric(obj, img, Kcv, cv::noArray(), rvecs, tvecs, false, cv::SOLVEPNP_IPPE);
     } catch (const cv::Exception&) {
-      return false;
+      return std::nullopt;
     }
-    fit = Fit{};
+    std::optional<Fit> fit;
     for (std::size_t s = 0; s < rvecs.size(); ++s) {
       const Eigen::Isometry3d X = pose_from_cv(rvecs[s], tvecs[s]);
       if (X.translation().z() <= 0) continue;
-      std::vector<double> err;
       double mx = 0.0;
       for (int k : set) {
-        err.push_back((project(K, X, target.ring(pairs[k].ring_id).centre_P_m) - pairs[k].centre)
-                          .norm());
-        mx = std::max(mx, err.back());
+        mx = std::max(mx, (project(K, X, target.ring(pairs[k].ring_id).centre_P_m) -
+                           pairs[k].centre).norm());
       }
-      if (mx < fit.max_err) {
-        fit.max_err = mx;
-        fit.err = err;
-        fit.X = X;
-      }
+      if (mx < (fit ? fit->max_err : std::numeric_limits<double>::infinity())) fit = Fit{X, mx};
     }
-    return !fit.err.empty();
+    return fit;
   };
   // Pose from three identified sets: P3P on their centres (up to four solutions), each
   // solution in front of the camera with the target facing it refined on the six conics.
@@ -330,14 +339,8 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
                             std::string& why) -> std::optional<Eigen::Isometry3d> {
     std::vector<cv::Point3d> obj;
     std::vector<cv::Point2d> img;
-    std::vector<vision_internal::ConicObservation> o3;
-    for (int k : set) {
-      const RingSet& ring = target.ring(pairs[k].ring_id);
-      obj.emplace_back(ring.centre_P_m.x(), ring.centre_P_m.y(), 0.0);
-      img.emplace_back(pairs[k].centre.x(), pairs[k].centre.y());
-      o3.push_back({ring.centre_P_m, ring.outer_radius_m, &cands[pairs[k].outer].points});
-      o3.push_back({ring.centre_P_m, ring.inner_radius_m, &cands[pairs[k].inner].points});
-    }
+    centre_points(set, obj, img);
+    const std::vector<vision_internal::ConicObservation> o3 = conic_observations(set);
     std::vector<cv::Mat> rvecs, tvecs;
     try {
       cv::solveP3P(obj, img, Kcv, cv::noArray(), rvecs, tvecs, cv::SOLVEPNP_P3P);
@@ -396,10 +399,9 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
     X0 = *X3;
   } else {
     for (;;) {
-      Fit fit;
-      const bool ok = ippe(chosen, fit);
-      if (ok && fit.max_err <= p.max_centre_reproj_px) {
-        X0 = fit.X;
+      const std::optional<Fit> fit = ippe(chosen);
+      if (fit && fit->max_err <= p.max_centre_reproj_px) {
+        X0 = fit->X;
         break;
       }
       // Hexagon layout check: drop the centre whose removal leaves the most consistent rest
@@ -407,23 +409,23 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
       // error, or put both IPPE solutions behind the camera), and retry.
       if (static_cast<int>(chosen.size()) <= p.min_rings) {
         fill_centres();
-        return ok ? fail(VisionStatus::PoseFailed,
-                         "identified centres inconsistent with the ring layout (max error " +
-                             std::to_string(fit.max_err) + " px)")
-                  : fail(VisionStatus::PoseFailed, "IPPE gave no solution in front");
+        return fit ? fail(VisionStatus::PoseFailed,
+                          "identified centres inconsistent with the ring layout (max error " +
+                              std::to_string(fit->max_err) + " px)")
+                   : fail(VisionStatus::PoseFailed, "IPPE gave no solution in front");
       }
       std::size_t drop = 0;
-      double best = 1e18;
+      std::optional<double> best;
       for (std::size_t i = 0; i < chosen.size(); ++i) {
         std::vector<int> rest = chosen;
         rest.erase(rest.begin() + static_cast<std::ptrdiff_t>(i));
-        Fit f;
-        if (ippe(rest, f) && f.max_err < best) {
-          best = f.max_err;
+        const std::optional<Fit> f = ippe(rest);
+        if (f && (!best || f->max_err < *best)) {
+          best = f->max_err;
           drop = i;
         }
       }
-      if (best >= 1e18) {
+      if (!best) {
         fill_centres();
         return fail(VisionStatus::PoseFailed, "IPPE gave no solution in front");
       }
@@ -458,12 +460,7 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
   fill_centres();
 
   // Levenberg-Marquardt on the conic reprojection cost, eq. (14)-(15).
-  std::vector<vision_internal::ConicObservation> obs;
-  for (int k : chosen) {
-    const RingSet& ring = target.ring(pairs[k].ring_id);
-    obs.push_back({ring.centre_P_m, ring.outer_radius_m, &cands[pairs[k].outer].points});
-    obs.push_back({ring.centre_P_m, ring.inner_radius_m, &cands[pairs[k].inner].points});
-  }
+  const std::vector<vision_internal::ConicObservation> obs = conic_observations(chosen);
   const auto ref = vision_internal::refine_pose_conics(K, X0, obs, p.refine_points_per_ellipse,
                                                        p.refine_max_iter);
   if (!ref.ok) return fail(VisionStatus::PoseFailed, "conic refinement (eq. 14-15) failed");
