@@ -13,7 +13,6 @@
 #include <limits>
 
 #include <opencv2/calib3d.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "lander/estimator/camera_cv.h"
 #include "lander/estimator/vision_detector.h"
@@ -316,6 +315,14 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
   const auto corners = marker_corners_P(g);
   const std::vector<Eigen::Vector2d> corners_P(corners.begin(), corners.end());
 
+  // A detection's reprojection, position (and whether it is gross) and rotation errors.
+  auto add_pose = [](Stats& s, double reproj_px, const Eigen::Isometry3d& X_est,
+                     const Eigen::Isometry3d& X_CP) {
+    s.reproj.push_back(reproj_px);
+    s.pos.push_back((X_est.translation() - X_CP.translation()).norm());
+    s.gross += s.pos.back() > kGrossPosFrac * X_CP.translation().norm();
+    s.rot.push_back(rot_err_deg(X_est, X_CP));
+  };
   // One frame of ours / of a square marker into a group: detection, centre or corner error
   // against the true projections `truth`, reprojection, pose error.
   auto add_ours = [&](Stats& s, const RingDetection& d, double cpu_ms, const Eigen::Isometry3d& X_CP,
@@ -329,10 +336,7 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
         if (g.rings[i].id == c.ring_id) s.centre_err.push_back((c.centre_image_px - truth[i]).norm());
       }
     }
-    s.reproj.push_back(d.reproj_err_px);
-    s.pos.push_back((d.X_CP.translation() - X_CP.translation()).norm());
-    s.gross += s.pos.back() > kGrossPosFrac * X_CP.translation().norm();
-    s.rot.push_back(rot_err_deg(d.X_CP, X_CP));
+    add_pose(s, d.reproj_err_px, d.X_CP, X_CP);
   };
   auto add_square = [&](Stats& s, const PeerDetection& d, double cpu_ms,
                         const Eigen::Isometry3d& X_CP, const std::vector<Eigen::Vector2d>& truth) {
@@ -341,10 +345,7 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
     if (!d.detected) return;
     ++s.detected;
     for (int i = 0; i < 4; ++i) s.centre_err.push_back((d.corners_px[i] - truth[i]).norm());
-    s.reproj.push_back(d.reproj_err_px);
-    s.pos.push_back((d.X_CP.translation() - X_CP.translation()).norm());
-    s.gross += s.pos.back() > kGrossPosFrac * X_CP.translation().norm();
-    s.rot.push_back(rot_err_deg(d.X_CP, X_CP));
+    add_pose(s, d.reproj_err_px, d.X_CP, X_CP);
   };
   // Square-marker frame of the view sweep.
   auto score_square = [&](MethodStats& ms, const PeerDetection& d, double cpu_ms,
@@ -412,10 +413,8 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
           v["apriltag"] = dt.detected;
           v["aruco"] = da.detected;
           if (!d.detected && !p.save_misses_dir.empty()) {
-            std::vector<unsigned char> png;
-            cv::imencode(".png", rings, png);
-            sim::write_file_atomic(p.save_misses_dir + "/view_" + std::to_string(views.size()) + ".png",
-                                   std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+            write_png_file(p.save_misses_dir + "/view_" + std::to_string(views.size()) + ".png",
+                           rings);
           }
           views.push_back(std::move(v));
         }

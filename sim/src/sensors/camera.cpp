@@ -7,7 +7,6 @@
 
 #include <opencv2/calib3d.hpp>
 #include <fmt/format.h>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "lander/sim/render/renderer.h"
@@ -250,10 +249,7 @@ CameraFrame CameraPipeline::finish(int index, const Eigen::Isometry3d& X_WC_mid)
 }
 
 void save_frame_png(const std::string& dir, const CameraFrame& frame) {
-  std::vector<unsigned char> png;
-  cv::imencode(".png", frame.bgr, png);
-  write_file_atomic(fmt::format("{}/frame_{:05d}.png", dir, frame.index),
-                    std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+  write_png_file(fmt::format("{}/frame_{:05d}.png", dir, frame.index), frame.bgr);
 }
 
 CameraRig::CameraRig(const CameraParams& params, std::uint64_t seed, double physics_dt_s)

@@ -12,6 +12,8 @@
 #include <sstream>
 
 #include <fmt/format.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 namespace lander::sim {
 
@@ -71,6 +73,12 @@ std::string json_text(const nlohmann::ordered_json& j) {
 
 void write_json_file(const std::string& path, const nlohmann::ordered_json& j) {
   write_file_atomic(path, json_text(j));
+}
+
+void write_png_file(const std::string& path, const cv::Mat& img) {
+  std::vector<unsigned char> png;
+  cv::imencode(".png", img, png);
+  write_file_atomic(path, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
 }
 
 CsvWriter::CsvWriter(const std::string& path, std::vector<std::string> columns)

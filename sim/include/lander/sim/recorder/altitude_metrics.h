@@ -6,9 +6,10 @@
 //   {"baro": {"all": {"rmse_m": 0.12, "max_m": 0.4, "n": 3000},
 //             "above_3m": {...}, "below_3m": {...}}, "gps": {...}, ...}
 // Sensors appear in a fixed order (baro, gps, ultrasonic, vision, fused, then any other in the
-// order first added), so identical runs write identical files. An empty band has "rmse_m": null, "max_m": null, "n": 0. "non_finite" (in "all") counts the
-// samples whose error was NaN or infinite (a bad sample from the flight side must not abort
-// the run): they enter no figure. A finite error whose true height is not finite counts in
+// order first added), so identical runs write identical files. An empty band has
+// "rmse_m": null, "max_m": null, "n": 0. "non_finite" (in "all") counts the samples whose
+// error was NaN or infinite (a bad sample from the flight side must not abort the run): they
+// enter no figure. A finite error whose true height is not finite counts in
 // "all" only.
 #pragma once
 

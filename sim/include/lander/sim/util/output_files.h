@@ -18,6 +18,10 @@
 
 #include <nlohmann/json.hpp>
 
+namespace cv {
+class Mat;
+}
+
 namespace lander::sim {
 
 // Writing an output file failed (cannot create, short write, disk full, cannot rename).
@@ -63,6 +67,9 @@ void write_file_atomic(const std::string& path, std::string_view text);
 std::string json_text(const nlohmann::ordered_json& j);
 // json_text() written atomically. Throws OutputError naming `path`.
 void write_json_file(const std::string& path, const nlohmann::ordered_json& j);
+// An 8-bit image (grey, BGR or BGRA) as a PNG file, written atomically. Throws OutputError
+// naming `path`.
+void write_png_file(const std::string& path, const cv::Mat& img);
 
 // The one CSV writer of the project (trace.csv of both run kinds). A header row of column
 // names, then rows of exactly that many cells; numbers in fixed notation with a given number
