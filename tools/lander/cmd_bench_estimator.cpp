@@ -11,9 +11,9 @@
 // JSON and as a table on stderr.
 #include <cmath>
 #include <iostream>
+#include <limits>
 #include <filesystem>
 #include <map>
-#include <sstream>
 
 #include <opencv2/imgproc.hpp>
 
@@ -57,30 +57,11 @@ int bench_estimator(const Args& args) {
     bp.empty_frames = 50;
   }
   // --altitudes 2.5,5 --tilts 60,70,75 --blurs 0,12: a part of the view sweep (a diagnosis
-  // of one condition without the whole sweep).
-  auto list = [&](const char* name, std::vector<double>& out) {
-    if (!a.has(name)) return;
-    out.clear();
-    std::string v = a.value(name), item;
-    std::istringstream is(v);
-    while (std::getline(is, item, ',')) {
-      std::size_t used = 0;
-      double x = 0.0;
-      try {
-        x = std::stod(item, &used);
-      } catch (const std::exception&) {
-        used = 0;
-      }
-      if (used == 0 || used != item.size() || !std::isfinite(x)) {
-        throw UsageError(std::string("--") + name + ": '" + item + "' is not a number (give a comma-separated list)");
-      }
-      out.push_back(x);
-    }
-    if (out.empty()) throw UsageError(std::string("--") + name + ": empty list");
-  };
-  list("altitudes", bp.altitudes_m);
-  list("tilts", bp.tilts_deg);
-  list("blurs", bp.blur_px);
+  // of one condition without the whole sweep); their ranges are checked by bp.validate().
+  const double any = -std::numeric_limits<double>::infinity();
+  bp.altitudes_m = a.numbers("altitudes", bp.altitudes_m, any);
+  bp.tilts_deg = a.numbers("tilts", bp.tilts_deg, any);
+  bp.blur_px = a.numbers("blurs", bp.blur_px, any);
   if (a.has("save-misses")) {
     bp.save_misses_dir = a.value("save-misses");
     std::filesystem::create_directories(bp.save_misses_dir);

@@ -48,6 +48,10 @@ class ArgParser {
   long long integer(const std::string& name, long long fallback, long long min) const;
   // `--name` as a finite number >= min (fallback when absent); UsageError naming the option.
   double number(const std::string& name, double fallback, double min) const;
+  // `--name A,B,...` as finite numbers, each >= min (fallback when absent); UsageError naming
+  // the option for an empty list or item.
+  std::vector<double> numbers(const std::string& name, const std::vector<double>& fallback,
+                              double min) const;
   // The option's value (fallback when absent), which must be one of `allowed` (UsageError).
   std::string choice(const std::string& name, const std::string& fallback,
                      const std::vector<std::string>& allowed) const;

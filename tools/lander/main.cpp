@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
+#include <sstream>
 
 #include "command.h"
 #include "lander/estimator/params_io.h"
@@ -96,6 +97,24 @@ double ArgParser::number(const std::string& name, double fallback, double min) c
                               [](const std::string& v, std::size_t* used) {
                                 return std::stod(v, used);
                               });
+}
+
+std::vector<double> ArgParser::numbers(const std::string& name, const std::vector<double>& fallback,
+                                       double min) const {
+  if (!has(name)) return fallback;
+  const std::string v = value(name);
+  std::vector<double> out;
+  std::istringstream is(v);
+  for (std::string item; std::getline(is, item, ',');) {
+    out.push_back(parse_option<double>(name, item, min, "a number (give a comma-separated list)",
+                                       [](const std::string& x, std::size_t* used) {
+                                         return std::stod(x, used);
+                                       }));
+  }
+  if (out.empty()) {
+    throw UsageError("option --" + name + ": '" + v + "' is not a comma-separated list of numbers");
+  }
+  return out;
 }
 
 std::string ArgParser::choice(const std::string& name, const std::string& fallback,
