@@ -176,12 +176,26 @@ Setpoint LandingController::search_after_loss(double t_s) {
   yaw_hold_ = std::remainder(search_yaw0_ + L.search_yaw_rate_degps * M_PI / 180.0 * t_exp,
                              2 * M_PI);
   sp.yaw_rad = yaw_hold_;
-  // Climb (never below the search height it started at).
-  const double z_top = hold_p_.z() + L.search_climb_rate_mps * t_exp;
-  const double z_max = std::max(hold_p_.z(), platform_z() + L.search_max_height_m);
-  sp.p_W_m.z() = std::min(z_top, z_max);
-  if (sp.p_W_m.z() < z_max && L.search_climb_rate_mps > 0) sp.v_W_mps.z() = L.search_climb_rate_mps;
+  climb(t_exp, &sp);
   return sp;
+}
+
+// The search's climb: from hold_p_'s height at search_climb_rate_mps, t_climb_s after it
+// began, to at most search_max_height_m above the platform top (never below the height the
+// search started at).
+void LandingController::climb(double t_climb_s, Setpoint* sp) const {
+  const LandingParams& L = p_.landing;
+  const double z_top = hold_p_.z() + L.search_climb_rate_mps * t_climb_s;
+  const double z_max = std::max(hold_p_.z(), platform_z() + L.search_max_height_m);
+  sp->p_W_m.z() = std::min(z_top, z_max);
+  if (sp->p_W_m.z() < z_max && L.search_climb_rate_mps > 0) {
+    sp->v_W_mps.z() = L.search_climb_rate_mps;
+  }
+}
+
+void LandingController::give_up(double t_s, const std::string& why, const NavState& nav) {
+  decide(t_s, "aborted", why);
+  switch_to(t_s, Mode::kAborted, why, nav);
 }
 
 void LandingController::log_event(double t_s, const std::string& what,
@@ -260,6 +274,7 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
   switch (to) {
     case Mode::kSearch: {
       search_t0_ = t_s;
+      search_entry_t_ = t_s;
       search_yaw0_ = yaw_hold_;
       // The history is kept: search flies to its prediction of the platform (see
       // search_predict_max_s) and a re-acquisition continues it.
@@ -306,6 +321,7 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
       servo_int_.setZero();
       platform_vz_lp_ = diag_.platform_v_W_mps.z();
       final_t0_ = std::numeric_limits<double>::quiet_NaN();
+      recovery_t0_ = t_s;
       wide_committed_ = false;
       break;
     case Mode::kTouchdown:
@@ -422,6 +438,18 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
                   nav);
         return run_mode_machine(t_s, nav);
       }
+      // Bounded search (issue 10): a target not found this long after entering search ends
+      // the landing with the reason, instead of a search until the battery runs out.
+      if (t_s - search_entry_t_ >= L.search_give_up_s) {
+        give_up(t_s,
+                search_after_loss_
+                    ? fmt::format("target not re-acquired in {:.1f} s of search after the loss "
+                                  "(last seen at {:.2f} s)",
+                                  t_s - search_entry_t_, search_t_seen_)
+                    : fmt::format("target not found in {:.1f} s of search", t_s - search_entry_t_),
+                nav);
+        return run_mode_machine(t_s, nav);
+      }
       // After a loss: fly to where the motion model predicts the platform instead of holding
       // while the cart drives away, then widen the search around it.
       if (search_after_loss_) return search_after_loss(t_s);
@@ -447,9 +475,14 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
           search_yaw0_ + L.search_yaw_rate_degps * M_PI / 180.0 * (t_s - search_t0_), 2 * M_PI);
       Setpoint sp = hold(hold_p_);
       Eigen::Vector2d off, off_v;
-      spiral_offset(t_s - search_t0_ - L.search_spiral_after_s, &off, &off_v);
+      const double t_spiral = t_s - search_t0_ - L.search_spiral_after_s;
+      spiral_offset(t_spiral, &off, &off_v);
       sp.p_W_m.head<2>() += off;
       sp.v_W_mps.head<2>() = off_v;
+      // With the spiral, a climb for a wider view, as after a loss (never below the height the
+      // search started at): a start low over a cart driving away leaves the view before the
+      // first sweep ends.
+      if (t_spiral > 0.0) climb(t_spiral, &sp);
       diag_.search_centre_W_m = hold_p_;
       return sp;
     }
@@ -610,6 +643,15 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
         log_event(t_s, "final_stage",
                   fmt::format("below the final hold height {:.2f} m: decision in {:.1f} s",
                               L.final_hold_height_m, L.final_decision_after_s));
+      } else if (std::isnan(final_t0_) && t_s - recovery_t0_ >= L.recovery_decision_after_s) {
+        // The descent gates not met for this long (gusts): the bounded decision starts here,
+        // higher up, as if the final stage had begun.
+        final_t0_ = t_s;
+        log_event(t_s, "final_stage",
+                  fmt::format("{:.1f} s in recovery without going below the final hold height "
+                              "{:.2f} m (clearance {:.2f} m, error {:.3f} m): decision in {:.1f} s",
+                              t_s - recovery_t0_, L.final_hold_height_m, h, e_xy,
+                              L.final_decision_after_s));
       }
       const double waited = std::isnan(final_t0_) ? 0.0 : t_s - final_t0_;
       diag_.final_stage_s = waited;
@@ -627,18 +669,18 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
           wide_committed_ = true;
           diag_.wide_committed = true;
           decide(t_s, "committed_wide",
-                 fmt::format("nominal gate ({:.3f} m, {:.2f} m/s) not met in {:.1f} s below {:.2f} m; "
-                             "error {:.3f} m < {:.3f} m, relative speed {:.2f} m/s < {:.2f} m/s "
+                 fmt::format("nominal gate ({:.3f} m, {:.2f} m/s) not met {:.1f} s into the final "
+                             "stage; error {:.3f} m < {:.3f} m, relative speed {:.2f} m/s < {:.2f} m/s "
                              "(gate widening to {:.3f} m, {:.2f} m/s)",
                              L.final_descent_error_m, L.final_descent_rel_speed_mps, waited,
-                             L.final_hold_height_m, e_xy, gate_now, rel_speed, rel_now, wide_gate,
+                             e_xy, gate_now, rel_speed, rel_now, wide_gate,
                              L.max_touchdown_rel_speed_mps));
         } else if (waited >= L.final_decision_after_s + L.final_decision_window_s) {
           end_attempt(t_s, Mode::kGoAround,
-                      fmt::format("final gate not met in {:.1f} s below {:.2f} m and not the wide gate "
-                                  "({:.3f} m, {:.2f} m/s) in {:.1f} s more: error {:.3f} m, relative "
+                      fmt::format("final gate not met in {:.1f} s of the final stage and not the wide "
+                                  "gate ({:.3f} m, {:.2f} m/s) in {:.1f} s more: error {:.3f} m, relative "
                                   "speed {:.2f} m/s",
-                                  L.final_decision_after_s, L.final_hold_height_m, wide_gate,
+                                  L.final_decision_after_s, wide_gate,
                                   L.max_touchdown_rel_speed_mps, L.final_decision_window_s, e_xy,
                                   rel_speed),
                       nav);
@@ -990,6 +1032,7 @@ RotorCommand LandingController::step(double t_s, const NavState& nav, const ImuS
       yaw_hold_ = yaw_of(nav.q_WB);
       search_yaw0_ = yaw_hold_;
       search_t0_ = t_s;
+      search_entry_t_ = t_s;
       hold_p_ = nav.p_W_m;
       last_outer_t_ = t_s;
       last_inner_t_ = t_s;

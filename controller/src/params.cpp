@@ -174,6 +174,8 @@ void LandingParams::validate() const {
   require(wide_gate_m() < go_around_error_m, limit,
           "gives a wide gate (wide_gate_m()) >= go_around_error_m");
   require(final_decision_after_s > 0, "final_decision_after_s", "must be > 0");
+  require(recovery_decision_after_s > 0, "recovery_decision_after_s", "must be > 0");
+  require(search_give_up_s > 0, "search_give_up_s", "must be > 0");
   require(final_decision_window_s >= 0, "final_decision_window_s", "must be >= 0");
   require(max_landing_attempts >= 1, "max_landing_attempts", "must be >= 1");
 }

@@ -190,13 +190,37 @@ TEST(Search, SpiralFindsAPlatformOutOfViewOfTheStart) {
   // Not during the in-place sweep: the spiral found it.
   EXPECT_GT(r.transitions.front().t_s, cfg.controller.landing.search_spiral_after_s);
 
-  // The same without the spiral: never acquired.
+  // The same without the spiral: never acquired, and the bounded search (issue 10) ends it
+  // in aborted after search_give_up_s, with its reason, instead of searching until the time
+  // runs out.
   LandingRunConfig hold = cfg;
   hold.controller.landing.search_spiral_speed_mps = 0.0;
   hold.max_time_s = 60.0;
   const LandingRunResult h = run_landing(hold);
   SCOPED_TRACE(h.describe());
-  EXPECT_TRUE(h.transitions.empty());
+  ASSERT_EQ(h.transitions.size(), 1u);
+  EXPECT_EQ(h.transitions.front().to, Mode::kAborted);
+  // One outer-loop period (30 Hz) of slack on when the limit is noticed.
+  EXPECT_NEAR(h.transitions.front().t_s, hold.controller.landing.search_give_up_s, 0.05);
+  EXPECT_NE(h.transitions.front().reason.find("target not found in"), std::string::npos);
+}
+
+// A platform that is never in view: the search gives up after search_give_up_s, also when
+// that is set shorter; the decision log records the abort.
+TEST(Search, GivesUpAfterTheConfiguredTime) {
+  LandingRunConfig cfg;
+  cfg.platform.p0_W_m = Eigen::Vector3d(200.0, 0.0, 0.8);  // far beyond any view
+  cfg.platform.v_W_mps.setZero();
+  cfg.start_W_m = Eigen::Vector3d(0.0, 0.0, 8.0);
+  cfg.controller.landing.search_give_up_s = 12.0;
+  cfg.max_time_s = 40.0;
+  const LandingRunResult r = run_landing(cfg);
+  SCOPED_TRACE(r.describe());
+  ASSERT_EQ(r.transitions.size(), 1u);
+  EXPECT_EQ(r.transitions.front().from, Mode::kSearch);
+  EXPECT_EQ(r.transitions.front().to, Mode::kAborted);
+  EXPECT_NEAR(r.transitions.front().t_s, 12.0, 0.05);
+  EXPECT_FALSE(r.contact);
 }
 
 }  // namespace

@@ -43,7 +43,8 @@ enum class Mode {
   kFollowPath, ///< seed 003: a painted route in view and the target not: follow the route
                ///< (path_guidance.h) until the target is acquired (-> observe), the route
                ///< is lost (-> search) or ends (hold there, route_ended())
-  kAborted,    ///< terminal, after max_landing_attempts failed attempts: climbs straight up to
+  kAborted,    ///< terminal, after max_landing_attempts failed attempts or a search that
+               ///< found nothing in search_give_up_s: climbs straight up to
                ///< go_around_height_m above the last known platform top (at least
                ///< search_min_height_m above the surface) and holds that point and the
                ///< heading, motors on, for the operator or a return-home outside this
@@ -213,6 +214,10 @@ class LandingController {
   bool predict_platform(double t_s, Eigen::Vector2d* p, Eigen::Vector2d* v);
   // Search after a loss: the prediction, then an expanding pattern around it (see .cpp).
   Setpoint search_after_loss(double t_s);
+  // The search's climb t_climb_s after it began: sets sp's height and vertical velocity.
+  void climb(double t_climb_s, Setpoint* sp) const;
+  // Ends the landing in aborted with `why`, whatever the attempts used (search_give_up_s).
+  void give_up(double t_s, const std::string& why, const NavState& nav);
   // Ends the current attempt without a landing: to `next` (go-around or search), or to
   // aborted once max_landing_attempts are used; logs the decision.
   void end_attempt(double t_s, Mode next, const std::string& why, const NavState& nav);
@@ -257,7 +262,7 @@ class LandingController {
   LandingDiagnostics diag_;
   bool started_{false};
   double yaw_hold_{0.0};         // heading setpoint (rad)
-  double search_t0_{0.0};        // search entry time (s)
+  double search_t0_{0.0};        // start of the current sweep pattern (s)
   double search_yaw0_{0.0};      // heading at search entry (rad)
   double last_outer_t_{0.0};
   Eigen::Vector3d hold_p_{Eigen::Vector3d::Zero()};    // search / go-around target
@@ -275,6 +280,8 @@ class LandingController {
   long rejected_inputs_{0};
   // Issue 10: bounded decisions, search after a loss, records.
   double final_t0_{std::numeric_limits<double>::quiet_NaN()};  // final stage entry (s)
+  double recovery_t0_{0.0};          // recovery entry (s)
+  double search_entry_t_{0.0};       // search entry (s): search_give_up_s counts from it
   bool wide_committed_{false};
   bool search_after_loss_{false};    // search entered with a fix history
   double search_t_seen_{0.0};        // last fix before that search's loss (s)

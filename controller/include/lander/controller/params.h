@@ -311,14 +311,27 @@ struct LandingParams {
                                           ///< -0.08 m) seeing 0.36 m x 0.20 m (fx 640 px),
                                           ///< a 5 x 5 window of 2.5 cm cells needed: across
                                           ///< the narrow axis 0.20 + 0.10 - 0.125 = 0.175 m
-  double final_decision_after_s{30.0};    ///< in recovery, this long after first going below
+  double final_decision_after_s{15.0};    ///< in recovery, this long after first going below
                                           ///< final_hold_height_m without a cut, the final
                                           ///< gate starts widening towards the wide gate (s):
                                           ///< the nominal final stage takes ~2 s
                                           ///< (default.yaml); a stop-and-go cart (8.7 s
                                           ///< cycle, stands 2 s) is met in its first or
                                           ///< second stop (up to ~18 s in 6 seeds of
-                                          ///< cart_stop_and_go.yaml): 30 s leaves a third
+                                          ///< cart_stop_and_go.yaml): 15 s + the window
+                                          ///< covers the second stop and ends the attempt
+                                          ///< within ~20 s (was 30 s: in the 200-run
+                                          ///< envelope 17 runs hovered until the 60 s ran out)
+  double recovery_decision_after_s{12.0};  ///< the final-stage timer above also starts this
+                                          ///< long after entering recovery if the vehicle has
+                                          ///< not yet gone below final_hold_height_m (the
+                                          ///< descent gates never met in gusts): the decision
+                                          ///< then comes higher up (s); landed envelope runs
+                                          ///< reached the final stage 3.5-10.8 s after entry
+  double search_give_up_s{30.0};          ///< search (first or after a loss) that has not
+                                          ///< acquired the target this long after entering it
+                                          ///< ends in aborted with the reason (s): by then a
+                                          ///< 1.5 m/s cart is 45 m from where it was
   double final_decision_window_s{5.0};    ///< ... linearly over this long, to wide_gate_m()
                                           ///< and max_touchdown_rel_speed_mps; not within it
                                           ///< by then: go-around (s); 0 = the wide gate at once
@@ -403,6 +416,8 @@ void visit_fields(V& v, LandingParams& p) {
   v("wide_gate_margin_m", p.wide_gate_margin_m);
   v("cut_vision_radius_m", p.cut_vision_radius_m);
   v("final_decision_after_s", p.final_decision_after_s);
+  v("recovery_decision_after_s", p.recovery_decision_after_s);
+  v("search_give_up_s", p.search_give_up_s);
   v("final_decision_window_s", p.final_decision_window_s);
   v("max_landing_attempts", p.max_landing_attempts);
 }
