@@ -11,6 +11,7 @@
 #include <iostream>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <thread>
@@ -96,7 +97,27 @@ struct Active {
   std::unique_ptr<sim::ChildProcess> child;
   std::chrono::steady_clock::time_point start;
   bool timed_out{false};
+  // The run's CPU time (s) at the last sample, when it last grew, and when it was sampled.
+  double cpu_s{0.0};
+  std::chrono::steady_clock::time_point cpu_grew, cpu_sampled;
+  std::string hang_detail;
 };
+
+bool is_hung(Active& a, double limit_s, double wall_s) {
+  const auto now = std::chrono::steady_clock::now();
+  const double sample_every_s = std::min(1.0, limit_s / 4.0);
+  if (std::chrono::duration<double>(now - a.cpu_sampled).count() >= sample_every_s) {
+    a.cpu_sampled = now;
+    if (const std::optional<double> cpu = process_cpu_s(a.child->pid()); cpu && *cpu > a.cpu_s) {
+      a.cpu_s = *cpu;
+      a.cpu_grew = now;
+    }
+  }
+  const double idle_s = std::chrono::duration<double>(now - a.cpu_grew).count();
+  const std::optional<std::string> why = hang_reason(a.cpu_s, idle_s, wall_s, limit_s);
+  if (why) a.hang_detail = *why;
+  return why.has_value();
+}
 
 std::string fmt_duration(double s) {
   if (!std::isfinite(s) || s < 0) return "?";
@@ -131,7 +152,7 @@ json finish_record(const Active& a, const sim::ExitStatus& st, double wall_s) {
   }
   if (a.timed_out) {
     status = "hung";
-    detail = fmt::format("no end within the run's wall-clock limit; killed after {:.0f} s", wall_s);
+    detail = fmt::format("no end: {}; killed after {:.0f} s", a.hang_detail, wall_s);
   } else if (st.signaled) {
     status = "crashed";
     detail = "the run process was " + st.describe();
@@ -190,6 +211,38 @@ void write_plan(const Campaign& c, const std::vector<PlannedRun>& plan, const st
   }
   sim::write_json_file(path, j);
   sim::write_file_atomic(out_dir + "/campaign.yaml", sim::read_file_text(c.file, true));
+}
+
+std::optional<double> process_cpu_s(pid_t pid) {
+  std::ifstream f("/proc/" + std::to_string(pid) + "/stat");
+  std::string line;
+  if (!std::getline(f, line)) return std::nullopt;
+  const std::size_t rp = line.rfind(')');  // the command name may hold spaces and ')'
+  if (rp == std::string::npos || rp + 2 > line.size()) return std::nullopt;
+  std::istringstream is(line.substr(rp + 2));
+  std::string field;
+  // After the name: state, ppid, pgrp, session, tty_nr, tpgid, flags, minflt, cminflt,
+  // majflt, cmajflt (11 fields), then utime and stime in clock ticks (proc(5)).
+  for (int i = 0; i < 11 && (is >> field); ++i) {
+  }
+  long long utime = 0, stime = 0;
+  if (!(is >> utime >> stime)) return std::nullopt;
+  const long ticks = sysconf(_SC_CLK_TCK);
+  if (ticks <= 0) return std::nullopt;
+  return static_cast<double>(utime + stime) / static_cast<double>(ticks);
+}
+
+std::optional<std::string> hang_reason(double cpu_s, double cpu_idle_s, double wall_s,
+                                       double limit_s) {
+  if (cpu_s > limit_s) {
+    return fmt::format("{:.0f} s of CPU time, beyond the run's limit of {:.0f} s", cpu_s, limit_s);
+  }
+  if (wall_s > limit_s && cpu_idle_s > std::min(60.0, limit_s)) {
+    return fmt::format("past the run's limit of {:.0f} s and no CPU used for {:.0f} s ({:.1f} s "
+                       "of CPU in all)",
+                       limit_s, cpu_idle_s, cpu_s);
+  }
+  return std::nullopt;
 }
 
 RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan,
@@ -296,6 +349,7 @@ RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan
       so.own_process_group = true;
       so.env = env;
       a.start = std::chrono::steady_clock::now();
+      a.cpu_grew = a.cpu_sampled = a.start;
       a.child = std::make_unique<sim::ChildProcess>(sim::ChildProcess::spawn(
           {lander, "run", a.partial + "/scenario.input.yaml", "--out", a.partial, "--quiet"}, so));
       ++res.started;
@@ -308,7 +362,7 @@ RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan
                                                  : 120.0 + 20.0 * it->run->duration_s;
       const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - it->start).count();
       std::optional<sim::ExitStatus> st = it->child->poll();
-      if (!st && el > limit) {
+      if (!st && is_hung(*it, limit, el)) {
         it->timed_out = true;
         it->child->kill(SIGKILL);
         st = it->child->wait();

@@ -11,9 +11,12 @@
 // What the simulator did and what the vehicle did are kept apart: `status` is `ok` when the
 // run process ended normally with a summary (whatever the landing outcome), else `crashed`
 // (killed by a signal), `error` (threw, or ended without a summary), `hung` (past the run's
-// wall-clock limit: killed) or `diverged` (the simulation's state went non-finite).
+// limit by hang_reason(): killed) or `diverged` (the simulation's state went non-finite).
 #pragma once
 
+#include <sys/types.h>
+
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -48,6 +51,17 @@ struct RunnerResult {
 void write_plan(const Campaign& c, const std::vector<PlannedRun>& plan, const std::string& out_dir);
 
 // Runs what is missing of this shard. Throws ConfigError for bad options.
+// CPU time (user + system, all threads) process `pid` has used, from /proc/<pid>/stat;
+// nullopt when it cannot be read (the process is gone, or there is no /proc).
+std::optional<double> process_cpu_s(pid_t pid);
+
+// The runner's hang rule: a run is hung when it has used more CPU time than its limit (a busy
+// loop), or when it is past the limit in wall time and its CPU time has not grown for
+// min(60 s, limit) (asleep or deadlocked). A run that is only starved (a campaign at low
+// priority beside other work) still gets some CPU and is not hung. Returns why, or nullopt.
+std::optional<std::string> hang_reason(double cpu_s, double cpu_idle_s, double wall_s,
+                                       double limit_s);
+
 RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan,
                           const RunnerOptions& o);
 
