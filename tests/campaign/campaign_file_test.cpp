@@ -1,6 +1,7 @@
 // Campaign files: loading, dispersions, determinism of the plan, and errors with file:line.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -46,13 +47,37 @@ const YAML::Node& sampled(const PlannedRun& r, const std::string& key) {
 }
 
 TEST(CampaignFile, ShippedCampaignsLoadAndPlan) {
-  for (const char* name : {"smoke.yaml", "envelope.yaml"}) {
+  // Every campaign file shipped under campaigns/ loads, validates and plans.
+  std::set<std::string> names;
+  for (const auto& e : std::filesystem::directory_iterator(LANDER_CAMPAIGNS_DIR)) {
+    if (e.path().extension() == ".yaml") names.insert(e.path().filename().string());
+  }
+  EXPECT_TRUE(names.count("smoke.yaml") && names.count("envelope.yaml") && names.count("mismatch.yaml"));
+  for (const std::string& name : names) {
     const Campaign c = Campaign::load(std::string(LANDER_CAMPAIGNS_DIR) + "/" + name);
     const auto plan = make_plan(c);
     EXPECT_FALSE(plan.empty()) << name;
-    if (std::string(name) == "envelope.yaml") {
+    if (name == "envelope.yaml") {
       EXPECT_GE(plan.size(), 200u);
     }
+  }
+}
+
+// The plant-mismatch campaign disperses plant truths only: nothing it samples reaches the
+// flight software's configuration (flight.*), and the focal lengths stay within the 0.3 % of
+// the nominal 640 px it states (a pixel aspect error beyond ~0.6 % breaks close-range vision:
+// README).
+TEST(CampaignFile, MismatchCampaignDispersesThePlantOnly) {
+  const Campaign c = Campaign::load(std::string(LANDER_CAMPAIGNS_DIR) + "/mismatch.yaml");
+  const auto plan = make_plan(c);
+  ASSERT_EQ(plan.size(), 24u);
+  for (const PlannedRun& r : plan) {
+    for (const auto& kv : r.sampled) EXPECT_NE(kv.first.rfind("flight.", 0), 0u) << kv.first;
+    for (const char* key : {"camera.intrinsics.fx_px", "camera.intrinsics.fy_px"}) {
+      const double f = as_d(sampled(r, key));
+      EXPECT_LE(std::abs(f / 640.0 - 1.0), 0.003 + 1e-12) << r.id << " " << key;
+    }
+    EXPECT_GT(as_d(sampled(r, "vehicle.model.mass_kg")), 0.0);
   }
 }
 
