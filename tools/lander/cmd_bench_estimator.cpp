@@ -85,6 +85,7 @@ int bench_estimator(const Args& args) {
   const Eigen::Isometry3d X_WP = world.X_WP();
   std::string json;
   if (a.flag("synthetic")) {
+    bp.blur_direction_deg = bench::kSyntheticBlurDirectionDeg;
     json = bench::run_estimator_bench(bench::make_synthetic_bench_renderer(world.target(), cam, X_WP),
                                     X_WP, world.target(), cam, s.flight.estimator.vision, bp, &std::cerr);
   } else {

@@ -1,10 +1,12 @@
 // `lander detect IMAGE --camera CALIB.yaml [--target TARGET.yaml] [--params VISION.yaml]
-// [--json]`: runs the ring-target pose estimator (seed 000 section 2) on one image file.
+// [--blur-px DX,DY] [--json]` (--blur-px: the motion blur over the exposure, px, when known): runs the ring-target pose estimator (seed 000 section 2) on one image file.
 // Exit codes: 0 when the image was processed (detected or not: see "detected"/"reason"),
 // 2 for bad input (missing or unreadable file, bad YAML, image size not the calibration's).
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
+#include <limits>
+#include <vector>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -15,10 +17,10 @@ namespace lander::cli {
 namespace {
 
 int run_detect(const Args& args) {
-  const ArgParser ap(args, {"camera", "target", "params"}, {"json"});
+  const ArgParser ap(args, {"camera", "target", "params", "blur-px"}, {"json"});
   if (ap.positional().size() != 1) {
     throw UsageError("usage: lander detect IMAGE --camera CALIB.yaml [--target TARGET.yaml] "
-                     "[--params VISION.yaml] [--json]");
+                     "[--params VISION.yaml] [--blur-px DX,DY] [--json]");
   }
   if (!ap.has("camera")) throw UsageError("--camera CALIB.yaml is required");
   const std::string image_path = ap.positional()[0];
@@ -40,7 +42,14 @@ int run_detect(const Args& args) {
                       " is " + std::to_string(camera.width_px) + "x" +
                       std::to_string(camera.height_px));
   }
-  const RingDetection d = detect_ring_target(image, camera, target, params);
+  Eigen::Vector2d blur = Eigen::Vector2d::Zero();
+  if (ap.has("blur-px")) {
+    const std::vector<double> b =
+        ap.numbers("blur-px", {}, -std::numeric_limits<double>::infinity());
+    if (b.size() != 2) throw UsageError("--blur-px takes two numbers: DX,DY (px)");
+    blur = Eigen::Vector2d(b[0], b[1]);
+  }
+  const RingDetection d = detect_ring_target(image, camera, target, params, blur);
   if (ap.flag("json")) {
     std::cout << to_json(d) << "\n";
     return kExitOk;
@@ -65,7 +74,7 @@ int run_detect(const Args& args) {
 
 const LanderCommand kDetect("detect",
                             "IMAGE --camera CALIB.yaml [--target T.yaml] [--params P.yaml] "
-                            "[--json]: ring-target pose from one image",
+                            "[--blur-px DX,DY] [--json]: ring-target pose from one image",
                             Kind::Command, run_detect);
 
 }  // namespace

@@ -770,7 +770,7 @@ void RingTargetDetector::reset() {
   rejections_ = 0;
 }
 
-RingDetection RingTargetDetector::detect(const cv::Mat& image) {
+RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vector2d& blur_px) {
   const auto t0 = std::chrono::steady_clock::now();
   RingDetection d;
   auto finish = [&]() {
@@ -845,6 +845,26 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image) {
     d.status = VisionStatus::NoEllipses;
     d.reason = "image too small to hold the target";
   }
+  // Blur-aware pass (issue 12): no pose from the frame as it is, and the caller predicts a
+  // blur long enough to close the inner circles and bridge the gaps: the rings again, on the
+  // frame deconvolved with that blur. The acceptance gates are the same.
+  if (!d.detected && params_.deblur_min_px > 0 && blur_px.allFinite() &&
+      blur_px.norm() >= params_.deblur_min_px && full.width >= 16 && full.height >= 16) {
+    grey_region(image, full, grey);
+    const cv::Mat sharp = vision_internal::wiener_deblur(grey, blur_px, params_.deblur_noise_ratio);
+    RingDetection d2;
+    std::vector<EllipseCandidate> c2;
+    std::ostringstream os;
+    os << "deconvolved for a predicted blur of " << blur_px.norm() << " px";
+    if (search_region(sharp, full, camera_, target_, params_, d2, c2)) {
+      d2.reason += "; " + os.str();
+      d2.deblurred = true;
+      d = std::move(d2);
+      cands = std::move(c2);
+    } else {
+      d.reason += "; " + os.str() + ": " + d2.reason;
+    }
+  }
   // Code map (seed 001): searched unless the pose (this frame's rings, else the track) shows
   // its cells smaller than code_min_cell_px.
   if (params_.code_enabled && target_.code.cells > 0 && full.width >= 16 && full.height >= 16) {
@@ -897,11 +917,12 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image) {
 }
 
 RingDetection detect_ring_target(const cv::Mat& image, const CameraModel& camera,
-                                 const TargetGeometry& target, const VisionParams& params) {
+                                 const TargetGeometry& target, const VisionParams& params,
+                                 const Eigen::Vector2d& blur_px) {
   VisionParams p = params;
   p.tracking = false;
   RingTargetDetector det(camera, target, p);
-  return det.detect(image);
+  return det.detect(image, blur_px);
 }
 
 PlatformObservation to_platform_observation(const RingDetection& d, double t_s) {
@@ -948,6 +969,7 @@ std::string to_json(const RingDetection& d) {
   j["keyframe_status"] = to_string(d.keyframe_status);
   j["rho"] = d.rho;
   j["used_roi"] = d.used_roi;
+  j["deblurred"] = d.deblurred;
   j["roi"] = {d.roi.x, d.roi.y, d.roi.width, d.roi.height};
   j["time_ms"] = d.time_ms;
   Json centres = Json::array();

@@ -82,6 +82,11 @@ OtsuSplit otsu_split_sorted(const std::vector<double>& sorted);
 // beyond +-kMaxIntCoord: a degenerate homography or pose (hostile images do make them) can
 // send a point anywhere, and converting such a double to int is undefined behaviour.
 constexpr double kMaxIntCoord = 16777216.0;  // 2^24: far outside any image, exact in double
+// The 8-bit grey frame `grey` deconvolved (Wiener) with a motion blur that moved the image by
+// `blur_px` over the exposure (a uniform line PSF centred on the frame's mid-exposure
+// position): G conj(H) / (|H|^2 + k), computed with one DFT of the frame (edges replicated).
+cv::Mat wiener_deblur(const cv::Mat& grey, const Eigen::Vector2d& blur_px, double k);
+
 inline std::optional<int> to_int_coord(double v) {
   if (!(std::abs(v) <= kMaxIntCoord)) return std::nullopt;  // also false for NaN
   return static_cast<int>(v);

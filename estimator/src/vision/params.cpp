@@ -9,6 +9,9 @@ void VisionParams::validate() const {
   require(close_kernel_px >= 1 && close_kernel_px <= 15, "close_kernel_px", "must be in [1, 15]");
   require(min_contour_points >= 6, "min_contour_points", "must be >= 6 (an ellipse needs 5)");
   require(min_axis_px > 0, "min_axis_px", "must be > 0");
+  require(deblur_min_px >= 0 && deblur_min_px <= 200, "deblur_min_px", "must be in [0, 200]");
+  require(deblur_noise_ratio > 0 && deblur_noise_ratio <= 1, "deblur_noise_ratio",
+          "must be in (0, 1]");
   require(min_axis_ratio > 0 && min_axis_ratio < 1, "min_axis_ratio", "must be in (0, 1)");
   require(max_contour_fit_rms_px > 0, "max_contour_fit_rms_px", "must be > 0");
   require(edge_samples >= 12 && edge_samples <= 1024, "edge_samples", "must be in [12, 1024]");

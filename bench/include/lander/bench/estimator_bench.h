@@ -61,6 +61,10 @@ struct EstimatorBenchParams {
   std::vector<double> tilts_deg{0.0, 30.0, 45.0, 60.0, 70.0, 75.0, 80.0};  ///< optical axis
                                                                            ///< vs normal
   std::vector<double> blur_px{0.0, 5.0, 12.0, 15.0};  ///< motion-blur lengths (px)
+  double blur_direction_deg{0.0};  ///< direction of that blur in the image (image x = 0, y
+                                   ///< down): ours is told the blur (the vehicle knows its
+                                   ///< motion over the exposure: issue 12's blur-aware path),
+                                   ///< the peers are not; it must match the renderer's blur
   int yaws_per_view{2};       ///< random yaws (and azimuths) per altitude/tilt/blur
   int empty_frames{1000};     ///< frames with no target in view, per method
   std::uint64_t seed{1};      ///< random yaws, empty-frame poses
@@ -131,6 +135,8 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
 
 // A BenchRenderFn drawing the platform with the exact synthetic warp (SyntheticPlatformView,
 // no distortion) at X_WP on uniform ground; blur along 30 deg in the image.
+// Blurs along kSyntheticBlurDirectionDeg (set EstimatorBenchParams::blur_direction_deg to it).
+constexpr double kSyntheticBlurDirectionDeg = 30.0;
 BenchRenderFn make_synthetic_bench_renderer(const TargetGeometry& target,
                                             const CameraModel& camera,
                                             const Eigen::Isometry3d& X_WP);

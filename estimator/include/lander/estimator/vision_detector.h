@@ -121,6 +121,8 @@ struct RingDetection {
   double rho{0.0};  ///< eq. (18) against the last keyframe (0 for the first)
 
   bool used_roi{false};          ///< found in the predicted region (tracking)
+  bool deblurred{false};         ///< the pose came from the frame deconvolved for the
+                                 ///< predicted blur (detect()'s blur_px)
   cv::Rect roi;                  ///< region searched last (full frame if no ROI)
   double time_ms{0.0};           ///< wall time of detect() (ms)
 };
@@ -130,8 +132,10 @@ struct RingDetection {
 double keyframe_rho(const Eigen::Isometry3d& X_CP_old, const Eigen::Isometry3d& X_CP_new);
 
 // Single frame, no tracking, no keyframe history (keyframe_status First when detected).
+// `blur_px`: as RingTargetDetector::detect().
 RingDetection detect_ring_target(const cv::Mat& image, const CameraModel& camera,
-                                 const TargetGeometry& target, const VisionParams& params);
+                                 const TargetGeometry& target, const VisionParams& params,
+                                 const Eigen::Vector2d& blur_px = Eigen::Vector2d::Zero());
 
 // Stateful estimator for an image stream: tracking ROI and keyframe history.
 class RingTargetDetector {
@@ -140,7 +144,11 @@ class RingTargetDetector {
   RingTargetDetector(CameraModel camera, TargetGeometry target, VisionParams params = {});
 
   // Processes one frame (BGR/BGRA/grey, 8 or 16 bit). Never throws for bad image content.
-  RingDetection detect(const cv::Mat& image);
+  // `blur_px`: the image motion the caller predicts over the frame's exposure (px, x right,
+  // y down; the blur's length and direction, e.g. from the vehicle's rates and velocity and
+  // the exposure time), zero when unknown. When the plain passes give no pose and the blur is
+  // at least deblur_min_px, the frame is searched again deconvolved with it.
+  RingDetection detect(const cv::Mat& image, const Eigen::Vector2d& blur_px = Eigen::Vector2d::Zero());
   // Forgets the prediction and the last keyframe.
   void reset();
 
