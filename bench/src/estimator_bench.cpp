@@ -315,6 +315,11 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
   const auto corners = marker_corners_P(g);
   const std::vector<Eigen::Vector2d> corners_P(corners.begin(), corners.end());
 
+  // The blur ours is told for a frame rendered with `length_px` of blur.
+  const double blur_dir = p.blur_direction_deg * M_PI / 180.0;
+  auto blur_vector = [&](double length_px) {
+    return Eigen::Vector2d(length_px * std::cos(blur_dir), length_px * std::sin(blur_dir));
+  };
   // A detection's reprojection, position (and whether it is gross) and rotation errors.
   auto add_pose = [](Stats& s, double reproj_px, const Eigen::Isometry3d& X_est,
                      const Eigen::Isometry3d& X_CP) {
@@ -368,8 +373,7 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
           // Ours: a single-frame (full-frame) search, then the same frame again with a
           // tracking detector primed on it, for the ROI timing.
           const cv::Mat rings = render(X_WC, MarkerKind::Rings, blur);
-          const double bdir = p.blur_direction_deg * M_PI / 180.0;
-          const Eigen::Vector2d blur_vec = blur * Eigen::Vector2d(std::cos(bdir), std::sin(bdir));
+          const Eigen::Vector2d blur_vec = blur_vector(blur);
           double ms_ours = 0.0;
           const RingDetection d = timed([&] { return ours.detect(rings, blur_vec); }, ms_ours);
           double ms_track = kNaN;
@@ -440,6 +444,10 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
     }
     return X_WC;
   };
+  std::vector<double> deblur_blurs;  // the sweep's blurs long enough for the blur-aware pass
+  for (double b : p.blur_px) {
+    if (vision.deblur_min_px > 0 && b >= vision.deblur_min_px) deblur_blurs.push_back(b);
+  }
   for (int i = 0; i < p.empty_frames; ++i) {
     const double alt = p.altitudes_m[i % p.altitudes_m.size()];
     const Eigen::Isometry3d X_WC = empty_pose(alt, rng);
@@ -447,17 +455,12 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
     double ms_empty = 0.0;
     const RingDetection d = timed([&] { return ours.detect(frame); }, ms_empty);
     // The blur-aware pass must not invent a target either: the same frame searched again as
-    // if the vehicle predicted a blur (the sweep's blurs of 4 px or more in turn; the frame
-    // itself is sharp, so the deconvolution's ringing is at its worst). Not timed.
-    std::vector<double> blurs;
-    for (double b : p.blur_px) {
-      if (b >= vision.deblur_min_px && vision.deblur_min_px > 0) blurs.push_back(b);
-    }
+    // if the vehicle predicted a blur (the sweep's blurs that reach the pass, in turn; the
+    // frame itself is sharp, so the deconvolution's ringing is at its worst). Not timed.
     bool fp_deblur = false;
-    if (!blurs.empty()) {
-      const double b = blurs[static_cast<std::size_t>(i) % blurs.size()];
-      const double bdir = p.blur_direction_deg * M_PI / 180.0;
-      fp_deblur = ours.detect(frame, b * Eigen::Vector2d(std::cos(bdir), std::sin(bdir))).detected;
+    if (!deblur_blurs.empty()) {
+      const double b = deblur_blurs[static_cast<std::size_t>(i) % deblur_blurs.size()];
+      fp_deblur = ours.detect(frame, blur_vector(b)).detected;
     }
     s_ours.add_empty(alt, [&](Stats& s) {
       ++s.empty;

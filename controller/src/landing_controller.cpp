@@ -215,10 +215,10 @@ void LandingController::end_attempt(double t_s, Mode next, const std::string& wh
                                     const NavState& nav) {
   const LandingParams& L = p_.landing;
   if (decisions_.attempts >= L.max_landing_attempts) {
-    const std::string reason = fmt::format("{}; {} of {} landing attempts used: abort", why,
-                                           decisions_.attempts, L.max_landing_attempts);
-    decide(t_s, "aborted", reason);
-    switch_to(t_s, Mode::kAborted, reason, nav);
+    give_up(t_s,
+            fmt::format("{}; {} of {} landing attempts used: abort", why, decisions_.attempts,
+                        L.max_landing_attempts),
+            nav);
     return;
   }
   decide(t_s, next == Mode::kGoAround ? "go_around" : "lost", why);

@@ -1,5 +1,6 @@
 // `lander detect IMAGE --camera CALIB.yaml [--target TARGET.yaml] [--params VISION.yaml]
-// [--blur-px DX,DY] [--json]` (--blur-px: the motion blur over the exposure, px, when known): runs the ring-target pose estimator (seed 000 section 2) on one image file.
+// [--blur-px DX,DY] [--json]`: runs the ring-target pose estimator (seed 000 section 2) on one
+// image file; --blur-px is the motion blur over the exposure (px), when known.
 // Exit codes: 0 when the image was processed (detected or not: see "detected"/"reason"),
 // 2 for bad input (missing or unreadable file, bad YAML, image size not the calibration's).
 #include <filesystem>

@@ -134,8 +134,8 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
                                 std::ostream* progress = nullptr);
 
 // A BenchRenderFn drawing the platform with the exact synthetic warp (SyntheticPlatformView,
-// no distortion) at X_WP on uniform ground; blur along 30 deg in the image.
-// Blurs along kSyntheticBlurDirectionDeg (set EstimatorBenchParams::blur_direction_deg to it).
+// no distortion) at X_WP on uniform ground; blur along kSyntheticBlurDirectionDeg in the image
+// (set EstimatorBenchParams::blur_direction_deg to it).
 constexpr double kSyntheticBlurDirectionDeg = 30.0;
 BenchRenderFn make_synthetic_bench_renderer(const TargetGeometry& target,
                                             const CameraModel& camera,

@@ -50,7 +50,6 @@ struct RunnerResult {
 // in the same directory is refused with ConfigError) and DIR/campaign.yaml (a copy).
 void write_plan(const Campaign& c, const std::vector<PlannedRun>& plan, const std::string& out_dir);
 
-// Runs what is missing of this shard. Throws ConfigError for bad options.
 // CPU time (user + system, all threads) process `pid` has used, from /proc/<pid>/stat;
 // nullopt when it cannot be read (the process is gone, or there is no /proc).
 std::optional<double> process_cpu_s(pid_t pid);
@@ -62,6 +61,7 @@ std::optional<double> process_cpu_s(pid_t pid);
 std::optional<std::string> hang_reason(double cpu_s, double cpu_idle_s, double wall_s,
                                        double limit_s);
 
+// Runs what is missing of this shard. Throws ConfigError for bad options.
 RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan,
                           const RunnerOptions& o);
 

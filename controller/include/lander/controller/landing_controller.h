@@ -216,7 +216,7 @@ class LandingController {
   Setpoint search_after_loss(double t_s);
   // The search's climb t_climb_s after it began: sets sp's height and vertical velocity.
   void climb(double t_climb_s, Setpoint* sp) const;
-  // Ends the landing in aborted with `why`, whatever the attempts used (search_give_up_s).
+  // Ends the landing in aborted with `why` (search_give_up_s, or the last attempt failed).
   void give_up(double t_s, const std::string& why, const NavState& nav);
   // Ends the current attempt without a landing: to `next` (go-around or search), or to
   // aborted once max_landing_attempts are used; logs the decision.
