@@ -3,11 +3,21 @@
 #include <cmath>
 
 #include "lander/estimator/altitude_vision.h"
+#include "lander/estimator/motion_blur.h"
 #include "lander/estimator/target.h"
 
 namespace lander::flight {
 
 namespace {
+// The optical axis this far from the vertical and beyond counts as this tilted (a grazing
+// view's depth along the axis is not what the blur of the target follows).
+constexpr double kMinAxisCosine = 0.5;
+// Depths below this count as this: the camera at touchdown sits ~0.2 m above the platform.
+constexpr double kMinBlurDepthM = 0.2;
+// A platform fix older than this no longer gives the depth and the platform's velocity (the
+// tracker's relative vector is extrapolated from it); a second is ~30 frames.
+constexpr double kFreshFixS = 1.0;
+
 const FlightConfig& validated(const FlightConfig& c) {
   c.validate();
   return c;
@@ -28,6 +38,31 @@ VisionResult FlightStack::vision_result(const RingDetection& det, double t_mid_s
   vr.obs = to_platform_observation(det, t_mid_s);
   if (det.detected && det.keyframe) vr.h_plane_m = height_above_target_m(det.X_CP, config_.mount.X_BC());
   return vr;
+}
+
+Eigen::Vector2d FlightStack::predicted_blur_px(const ExposureInterval& exposure) const {
+  const double T = exposure.t_end_s - exposure.t_start_s;
+  const NavState nav = nav_.state();
+  if (!config_.estimator.vision.predict_blur || !nav.valid || !(T > 0.0)) return Eigen::Vector2d::Zero();
+  const Eigen::Matrix3d R_BC = config_.mount.X_BC().linear();
+  const Eigen::Matrix3d R_WC = nav.q_WB.toRotationMatrix() * R_BC;
+  const Eigen::Vector3d w_C = R_BC.transpose() * nav.omega_B_radps;
+  const ctl::PlatformTracker& tracker = controller_.tracker();
+  const bool fix = tracker.has_fix() && nav.t_s - tracker.latest().t_s < kFreshFixS;
+  const Eigen::Vector3d v_platform_W = fix ? tracker.velocity() : Eigen::Vector3d::Zero();
+  const Eigen::Vector3d v_C = R_WC.transpose() * (nav.v_W_mps - v_platform_W);
+  // Depth of the platform along the optical axis: from the tracker's relative vector, else
+  // the height above the surface over the cosine of the optical axis' tilt.
+  double Z = 0.0;
+  if (fix) {
+    Z = (R_WC.transpose() * tracker.relative_now(nav.t_s)).z();
+  } else {
+    const double h = fusion_started_ ? fusion_.estimate().h_surface_m : nav.p_W_m.z();
+    Z = h / std::max(kMinAxisCosine, -R_WC.col(2).z());
+  }
+  Z = std::max(Z, kMinBlurDepthM);
+  const Eigen::Vector2d blur = axis_point_motion_blur_px(w_C, v_C, Z, config_.camera.fx_px, config_.camera.fy_px, T);
+  return blur.allFinite() ? blur : Eigen::Vector2d::Zero();
 }
 
 bool FlightStack::wants_path() const {

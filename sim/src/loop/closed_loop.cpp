@@ -94,6 +94,7 @@ struct VisionJob {
   CameraFrame frame;
   Recorder::FrameCapture capture;
   bool run_path{false};
+  Eigen::Vector2d blur_px{Eigen::Vector2d::Zero()};  ///< the flight software's predicted blur
   RingDetection det;
   std::optional<PathObservation> path;
   double proc_ms{0};                    ///< wall time of the whole stage
@@ -150,7 +151,7 @@ class VisionStage {
   void run(VisionJob& j) {
     const auto t0 = Clock::now();
     const double c0 = thread_cpu_ms();
-    j.det = flight_.detect(j.frame.bgr);
+    j.det = flight_.detect(j.frame.bgr, j.blur_px);
     j.detect_cpu_ms = thread_cpu_ms() - c0;
     j.detect_ms = ms_since(t0);
     if (j.run_path) {
@@ -210,7 +211,8 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
   if (!o.vision_profile_csv.empty()) {
     profile = std::make_unique<CsvWriter>(
         o.vision_profile_csv, std::vector<std::string>{"frame", "t_s", "height_m", "detected", "status", "tracking_roi",
-                                                       "code_searched", "rings", "detector_ms", "detector_cpu_ms", "path_ms"});
+                                                       "code_searched", "rings", "predicted_blur_px", "deblurred", "vision_height_m",
+                                                       "detector_ms", "detector_cpu_ms", "path_ms"});
   }
   // A finished detection, in frame order on the main thread: outlier hook, the result to
   // deliver, the recorder, the delivery queue.
@@ -224,6 +226,11 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
       profile->integer(j.frame.index).num(j.frame.exposure.mid(), 4).num(j.capture.z_mid_m - j.capture.platform_z_m, 3);
       profile->integer(j.det.detected ? 1 : 0).text(to_string(j.det.status)).integer(j.det.used_roi ? 1 : 0);
       profile->integer(j.det.code_searched ? 1 : 0).integer(static_cast<long long>(j.det.centres.size()));
+      profile->num(j.blur_px.norm(), 2).integer(j.det.deblurred ? 1 : 0);
+      // The detection's camera height above the target (compare with height_m, the truth).
+      profile->num(j.det.detected ? height_above_target_m(j.det.X_CP, flight.mount().X_BC())
+                                  : std::numeric_limits<double>::quiet_NaN(),
+                   4);
       profile->num(j.detect_ms, 3).num(j.detect_cpu_ms, 3).num(j.path_ms, 3);
       profile->end_row();
     }
@@ -259,6 +266,9 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
       job.capture = recorder.capture_frame(*frame, flight);
       // The path stage (seed 003) runs only while the flight software can use it.
       job.run_path = flight.wants_path();
+      // Predicted here, on the loop's thread, from the state the flight software has when the
+      // frame arrives: the same in the serial and the overlapped schedule.
+      job.blur_px = flight.predicted_blur_px(frame->exposure);
       job.frame = std::move(*frame);
       const double t_end = job.frame.exposure.t_end_s;
       vision.submit(std::move(job), t_end + s.computer.vision_latency_s);

@@ -160,6 +160,7 @@ void Recorder::on_frame(const CameraFrame& frame, const FrameCapture& cap, const
   ++frames_;
   if (det.detected) {
     ++detections_;
+    if (det.deblurred) ++detections_deblurred_;
     if (det.keyframe) ++keyframes_;
     if (det.keyframe_status == KeyframeStatus::Rejected) ++keyframes_rejected_;
   } else {
@@ -329,6 +330,7 @@ void Recorder::finish(const Outcome& outcome, const flight::FlightStack& fs, Jso
   Json vision = Json::object();
   vision["frames"] = frames_;
   vision["detections"] = detections_;
+  vision["detections_deblurred"] = detections_deblurred_;
   vision["keyframes"] = keyframes_;
   vision["keyframes_rejected"] = keyframes_rejected_;
   Json reasons = Json::object();

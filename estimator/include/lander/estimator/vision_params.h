@@ -63,6 +63,9 @@ struct VisionParams {
                                      ///< clearly better than any other P3P solution)
   double max_centre_reproj_px{3.0};  ///< centre outlier gate after the initial PnP (px)
   // ---- blur (issue 12): the motion blur the caller predicts for the frame ----
+  bool predict_blur{true};           ///< the flight stack predicts each frame's blur from its
+                                     ///< own motion estimate and the exposure time and hands it
+                                     ///< to the detector (FlightStack::predicted_blur_px)
   double deblur_min_px{4.0};         ///< a predicted blur at least this long (px) gives a frame
                                      ///< with no pose a second pass on the frame Wiener-
                                      ///< deconvolved with that blur (a line PSF); 0 = never.
@@ -139,6 +142,7 @@ void visit_fields(V& v, VisionParams& p) {
   v("min_rings", p.min_rings);
   v("three_ring_pose", p.three_ring_pose);
   v("max_centre_reproj_px", p.max_centre_reproj_px);
+  v("predict_blur", p.predict_blur);
   v("deblur_min_px", p.deblur_min_px);
   v("deblur_noise_ratio", p.deblur_noise_ratio);
   v("refine_max_iter", p.refine_max_iter);

@@ -39,8 +39,20 @@ class FlightStack {
 
   // Vision: detects the target in one frame (BGR, as the camera delivers it, distorted; the
   // detector undistorts with the configuration's calibration). Stateful (tracking window,
-  // keyframes); frames in order. Never throws for bad image content.
-  RingDetection detect(const cv::Mat& bgr) { return detector_.detect(bgr); }
+  // keyframes); frames in order. Never throws for bad image content. `blur_px`: the image
+  // motion expected over the frame's exposure (predicted_blur_px()), zero for none.
+  RingDetection detect(const cv::Mat& bgr, const Eigen::Vector2d& blur_px = Eigen::Vector2d::Zero()) {
+    return detector_.detect(bgr, blur_px);
+  }
+  // The motion blur the flight software expects in a frame exposed over `exposure` (its
+  // duration is the camera driver's per-frame metadata), from its own state only: the
+  // navigation's body rates and velocity, the platform's velocity and position as the tracker
+  // has them (else the fused height below the vehicle as the depth, the platform still), the
+  // calibrated mount and focal lengths: the image motion of the point on the optical axis
+  // (axis_point_motion_blur_px) times the exposure time. Zero while the navigation has no
+  // state, or when estimator.vision.predict_blur is off. Call on the loop's thread when the
+  // frame arrives.
+  Eigen::Vector2d predicted_blur_px(const ExposureInterval& exposure) const;
   // The path stage (seed 003 eq. 6-9) on the same frame. It runs only while the controller
   // can use it (wants_path(): search and follow_path, both stages enabled).
   bool wants_path() const;

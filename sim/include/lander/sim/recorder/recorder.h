@@ -103,6 +103,7 @@ class Recorder {
   int trace_every_;
   LandingJudge judge_;
   int frames_ = 0, detections_ = 0, keyframes_ = 0, keyframes_rejected_ = 0;
+  int detections_deblurred_ = 0;  // poses from the blur-aware pass (issue 12)
   int outliers_injected_ = 0;
   bool last_detected_ = false;
   std::map<std::string, int> not_detected_reasons_;
