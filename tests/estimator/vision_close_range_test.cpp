@@ -212,8 +212,8 @@ TEST(VisionCloseRange, CentrePairWithAnotherSetGivesPose) {
 }
 
 // Given the central set alone in view (0.75 m, code off), a detector with no track gives no
-// pose (yaw unknown), and one that tracked the platform from higher up takes the yaw from
-// the track: its pose is right and its yaw variance is the prior's order.
+// pose (yaw unknown), and one that tracked the platform a frame earlier, a little higher up,
+// takes the yaw from the track: its pose is right and its yaw variance is the prior's order.
 TEST(VisionCloseRange, CentrePairAloneUsesTrackedYaw) {
   const TargetGeometry& g = test::default_target();
   VisionParams p;
@@ -227,15 +227,41 @@ TEST(VisionCloseRange, CentrePairAloneUsesTrackedYaw) {
     EXPECT_EQ(d.status, VisionStatus::TooFewRings);
     EXPECT_NE(d.reason.find("no yaw"), std::string::npos) << d.reason;
   }
+  // The track: a descent from 2.5 m (rings) to 0.8 m, the last frame before the near one
+  // (5 cm above it: 1.5 m/s of descent at 30 fps).
   RingTargetDetector det(kCam, g, p);
-  const auto X_far = test::look_at_pose(2.5, 0.0, 90.0, 0.0);
-  ASSERT_TRUE(det.detect(test::render_view(g, kCam, X_far)).detected);
+  for (double h : {2.5, 1.2, 0.95, 0.8}) {
+    ASSERT_TRUE(det.detect(test::render_view(g, kCam, test::look_at_pose(h, 0.0, 90.0, 0.0))).detected) << h << " m";
+  }
   const RingDetection d = det.detect(near);
   ASSERT_TRUE(d.detected) << d.reason;
   EXPECT_EQ(d.centres.size(), 1u);
   EXPECT_EQ(d.source, PoseSource::CentreRing);
   EXPECT_LT(test::position_error_m(d.X_CP, X_near), kPosTolPerMetre * X_near.translation().norm());
   EXPECT_LT(test::rotation_error_rad(d.X_CP, X_near), kRotTolRad);
+}
+
+// The lone central pair has nothing but the track to check it: a pose far from the tracked
+// one (here the track at 2.5 m, the central set alone at 0.75 m in the next frame: a jump no
+// vehicle makes in a frame, as when blur makes another set read as the central one) is not
+// reported; the tracked_max_jump gates off, it is.
+TEST(VisionCloseRange, CentrePairAloneFarFromTheTrackIsNotUsed) {
+  const TargetGeometry& g = test::default_target();
+  VisionParams p;
+  p.code_enabled = false;
+  const cv::Mat far = test::render_view(g, kCam, test::look_at_pose(2.5, 0.0, 90.0, 0.0));
+  const cv::Mat near = test::render_view(g, kCam, test::look_at_pose(0.75, 0.0, 90.0, 0.0));
+  {
+    RingTargetDetector det(kCam, g, p);
+    ASSERT_TRUE(det.detect(far).detected);
+    const RingDetection d = det.detect(near);
+    EXPECT_FALSE(d.detected);
+    EXPECT_NE(d.reason.find("from the tracked pose"), std::string::npos) << d.reason;
+  }
+  p.tracked_max_jump_m = 1e9;
+  RingTargetDetector det(kCam, g, p);
+  ASSERT_TRUE(det.detect(far).detected);
+  EXPECT_TRUE(det.detect(near).detected);
 }
 
 }  // namespace

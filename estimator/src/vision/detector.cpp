@@ -725,6 +725,20 @@ void combine_sources(RingDetection& d, const std::vector<EllipseCandidate>& cand
           }
         }
         if (ok && code_yaw && !poses_agree(ref.X_CP, d.code.X_CP, p)) ok = false;
+        if (ok && yaw_from == "tracked pose" && !with_code) {
+          // A lone central pair with the track's yaw has nothing else to check it (its one
+          // centre reprojects onto itself): in blurred frames another set read as the central
+          // one gave poses 30 % and 88 % off in range. It must stay near the track.
+          const double jump = (ref.X_CP.translation() - tracked->translation()).norm();
+          const double gate = p.tracked_max_jump_m + p.tracked_max_jump_ratio * tracked->translation().norm();
+          if (!(jump <= gate)) {
+            std::ostringstream os;
+            os << "; centre pair with the track's yaw is " << jump << " m from the tracked pose (gate " << gate
+               << " m): not used";
+            d.reason += os.str();
+            ok = false;
+          }
+        }
         if (ok) {
           std::ostringstream os;
           os << d.centres.size() << " ring sets identified (centre pair, yaw from " << yaw_from

@@ -108,6 +108,12 @@ struct VisionParams {
   bool centre_ring_pose{true};       ///< pose from the central set (both circles) when fewer
                                      ///< than min_rings sets are identified
   double tracked_yaw_sigma_rad{0.05};  ///< yaw prior taken from the tracked pose (rad)
+  double tracked_max_jump_m{0.1};      ///< a central pair alone, with the track's yaw, must lie
+  double tracked_max_jump_ratio{0.2};  ///< within this + ratio x the tracked range of the
+                                       ///< tracked pose (at most max_frames_without_detection
+                                       ///< + 1 frames old: at 30 fps and 1 m, 2 m/s of
+                                       ///< relative speed; a set taken for the central one
+                                       ///< reads the range 30 % off or more)
   double combine_max_angle_rad{0.05};  ///< ring and code poses must agree this well (rad)
   double combine_max_offset_ratio{0.03};  ///< ... and to this fraction of the distance
 
@@ -165,6 +171,8 @@ void visit_fields(V& v, VisionParams& p) {
   v("code_max_reproj_px", p.code_max_reproj_px);
   v("centre_ring_pose", p.centre_ring_pose);
   v("tracked_yaw_sigma_rad", p.tracked_yaw_sigma_rad);
+  v("tracked_max_jump_m", p.tracked_max_jump_m);
+  v("tracked_max_jump_ratio", p.tracked_max_jump_ratio);
   v("combine_max_angle_rad", p.combine_max_angle_rad);
   v("combine_max_offset_ratio", p.combine_max_offset_ratio);
 }
