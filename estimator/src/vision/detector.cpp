@@ -852,8 +852,13 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vect
       }
     }
   }
+  bool grey_full = false;  // the whole frame is in `grey` (the later passes need no conversion)
+  auto whole_grey = [&]() {
+    if (!grey_full) grey_region(image, full, grey);
+    grey_full = true;
+  };
   if (!done && full.width >= 16 && full.height >= 16) {
-    grey_region(image, full, grey);
+    whole_grey();
     search_region(grey, full, camera_, target_, params_, d, cands);
   } else if (!done) {
     d.status = VisionStatus::NoEllipses;
@@ -864,7 +869,7 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vect
   // frame deconvolved with that blur. The acceptance gates are the same.
   if (!d.detected && params_.deblur_min_px > 0 && blur_px.allFinite() &&
       blur_px.norm() >= params_.deblur_min_px && full.width >= 16 && full.height >= 16) {
-    grey_region(image, full, grey);
+    whole_grey();
     const cv::Mat sharp = vision_internal::wiener_deblur(grey, blur_px, params_.deblur_noise_ratio);
     RingDetection d2;
     std::vector<EllipseCandidate> c2;
@@ -889,7 +894,7 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vect
       search = z > 0 && target_.code.cell_m * camera_.fx_px / z >= params_.code_min_cell_px;
     }
     if (search) {
-      grey_region(image, full, grey);
+      whole_grey();
       d.code_searched = true;
       d.code = detect_code_pattern(grey, camera_, target_, params_);
     }
