@@ -307,7 +307,12 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
       const double T = std::clamp((goal_now - nav.p_W_m).norm() / L.approach_speed_mps,
                                   L.approach_min_duration_s, L.approach_max_duration_s);
       const double td = t_s + T;
-      approach_ = CubicTrajectory(nav.p_W_m, t_s, tracker_.predict(td) + eps, td);
+      Eigen::Vector3d v0 = Eigen::Vector3d::Zero(), vd = Eigen::Vector3d::Zero();
+      if (L.approach_match_velocities) {
+        v0 = nav.v_W_mps;
+        vd.head<2>() = tracker_.velocity().head<2>();
+      }
+      approach_ = CubicTrajectory(nav.p_W_m, t_s, tracker_.predict(td) + eps, td, v0, vd);
       diag_.approach_planned = true;
       diag_.approach_t0_s = t_s;
       diag_.approach_td_s = td;

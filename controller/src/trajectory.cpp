@@ -79,30 +79,41 @@ Eigen::MatrixXd PolynomialFit3::coefficients_about(double t0_s) const {
   return out;
 }
 
-CubicTrajectory::CubicTrajectory(const Eigen::Vector3d& p0_W, double t0_s,
-                                 const Eigen::Vector3d& pd_W, double td_s)
-    : p0_(p0_W), pd_(pd_W), t0_(t0_s), td_(td_s) {
+CubicTrajectory::CubicTrajectory(const Eigen::Vector3d& p0_W, double t0_s, const Eigen::Vector3d& pd_W,
+                                 double td_s, const Eigen::Vector3d& v0_W, const Eigen::Vector3d& vd_W)
+    : p0_(p0_W), pd_(pd_W), v0_(v0_W), vd_(vd_W), t0_(t0_s), td_(td_s),
+      hermite_(!v0_W.isZero(0.0) || !vd_W.isZero(0.0)) {
   if (!(td_s > t0_s)) throw std::invalid_argument("CubicTrajectory: t_d must be after t_0");
 }
 
-// eq. 29: P(t) = P_0 + 3 Diff s^2 - 2 Diff s^3, s = (t - t_0)/(t_d - t_0), clamped to [0, 1].
+// eq. 29: P(t) = P_0 + 3 Diff s^2 - 2 Diff s^3, s = (t - t_0)/(t_d - t_0), clamped to [0, 1];
+// with end velocities, the Hermite terms of trajectory.h on top (eq. 29's own expressions are
+// kept as they were, so a trajectory from rest to rest gives the same bits as before).
 Eigen::Vector3d CubicTrajectory::position(double t_s) const {
   const double s = std::clamp((t_s - t0_) / (td_ - t0_), 0.0, 1.0);
-  return p0_ + (pd_ - p0_) * (3.0 * s * s - 2.0 * s * s * s);
+  const Eigen::Vector3d p = p0_ + (pd_ - p0_) * (3.0 * s * s - 2.0 * s * s * s);
+  if (!hermite_) return p;
+  const double T = td_ - t0_;
+  if (t_s >= td_) return p + vd_ * (t_s - td_);
+  return p + v0_ * (T * (s - 2.0 * s * s + s * s * s)) + vd_ * (T * (s * s * s - s * s));
 }
 
 Eigen::Vector3d CubicTrajectory::velocity(double t_s) const {
   const double T = td_ - t0_;
   const double s = (t_s - t0_) / T;
-  if (s <= 0.0 || s >= 1.0) return Eigen::Vector3d::Zero();
-  return (pd_ - p0_) * (6.0 * s - 6.0 * s * s) / T;
+  if (s <= 0.0 || s >= 1.0) return hermite_ ? (s <= 0.0 ? v0_ : vd_) : Eigen::Vector3d::Zero();
+  const Eigen::Vector3d v = (pd_ - p0_) * (6.0 * s - 6.0 * s * s) / T;
+  if (!hermite_) return v;
+  return v + v0_ * (1.0 - 4.0 * s + 3.0 * s * s) + vd_ * (3.0 * s * s - 2.0 * s);
 }
 
 Eigen::Vector3d CubicTrajectory::acceleration(double t_s) const {
   const double T = td_ - t0_;
   const double s = (t_s - t0_) / T;
   if (s < 0.0 || s > 1.0) return Eigen::Vector3d::Zero();
-  return (pd_ - p0_) * (6.0 - 12.0 * s) / (T * T);
+  const Eigen::Vector3d a = (pd_ - p0_) * (6.0 - 12.0 * s) / (T * T);
+  if (!hermite_) return a;
+  return a + v0_ * ((6.0 * s - 4.0) / T) + vd_ * ((6.0 * s - 2.0) / T);
 }
 
 Setpoint CubicTrajectory::setpoint(double t_s, double yaw_rad) const {

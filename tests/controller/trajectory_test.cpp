@@ -264,6 +264,27 @@ TEST(CubicTrajectory, MeetsTheBoundaryConditionsOfEq29) {
   EXPECT_THROW(CubicTrajectory(p0, 3.0, pd, 3.0), std::invalid_argument);
 }
 
+// The Hermite form: an approach entered at the vehicle's velocity V_0 ends at P_d with the
+// platform's velocity V_d, and moves on at V_d after t_d.
+TEST(CubicTrajectory, StartsAndEndsAtTheGivenVelocities) {
+  const Eigen::Vector3d p0(-5, 1, 10), pd(2, 0.5, 2.3), v0(1.7, -2.2, -0.1), vd(1.1, -1.0, 0.0);
+  const CubicTrajectory c(p0, 4.0, pd, 11.0, v0, vd);
+  constexpr double kTol = 1e-12;  // closed-form polynomial: round-off only
+  EXPECT_NEAR((c.position(4.0) - p0).norm(), 0.0, kTol);
+  EXPECT_NEAR((c.position(11.0) - pd).norm(), 0.0, kTol);
+  EXPECT_NEAR((c.velocity(4.0 + 1e-12) - v0).norm(), 0.0, 1e-9);
+  EXPECT_NEAR((c.velocity(11.0 - 1e-12) - vd).norm(), 0.0, 1e-9);
+  for (double t : {4.5, 6.3, 9.9, 10.8}) {
+    const Eigen::Vector3d fd_v = (c.position(t + 1e-5) - c.position(t - 1e-5)) / 2e-5;
+    const Eigen::Vector3d fd_a = (c.velocity(t + 1e-5) - c.velocity(t - 1e-5)) / 2e-5;
+    EXPECT_NEAR((c.velocity(t) - fd_v).norm(), 0.0, 1e-7);
+    EXPECT_NEAR((c.acceleration(t) - fd_a).norm(), 0.0, 1e-6);
+  }
+  // After t_d the goal moves on with the platform.
+  EXPECT_NEAR((c.position(13.0) - (pd + 2.0 * vd)).norm(), 0.0, kTol);
+  EXPECT_NEAR((c.velocity(13.0) - vd).norm(), 0.0, kTol);
+}
+
 TEST(WaypointScript, HoldsThenFliesLegsAndHoldsTheLastWaypoint) {
   WaypointScript s(Eigen::Vector3d(0, 0, 5), 0.3, 1.0);
   s.go_to(Eigen::Vector3d(3, 4, 5), 1.0, 2.0);  // 5 m at 1 m/s: t = 1..6, hold to 8

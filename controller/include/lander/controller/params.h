@@ -176,6 +176,13 @@ struct LandingParams {
   double approach_switch_error_m{0.05};   ///< |Diff| at t >= t_d to enter recovery (paper 5 cm)
   double approach_settle_timeout_s{0.3};  ///< after t_d: enter recovery anyway if in view (s);
                                           ///< short, the cart does not wait
+  bool approach_match_velocities{false};  ///< true: the approach cubic starts at the vehicle's
+                                          ///< velocity and ends at the platform's horizontal
+                                          ///< velocity (trajectory.h). false (default): eq. 29
+                                          ///< from rest to rest, which brakes an entry made
+                                          ///< while following a fast cart (24 deg of roll at
+                                          ///< 1.4 m/s). Off until a paired envelope run says
+                                          ///< it is better (README, "Landing decisions")
   // recovery: visual servo and controlled descent (seed 000 section 3.3)
   double descent_rate_mps{0.5};           ///< descent rate high above the platform (m/s)
   double descent_rate_near_mps{0.2};      ///< descent rate below near_height_m (m/s)
@@ -362,6 +369,7 @@ void visit_fields(V& v, LandingParams& p) {
   v("approach_max_duration_s", p.approach_max_duration_s);
   v("approach_switch_error_m", p.approach_switch_error_m);
   v("approach_settle_timeout_s", p.approach_settle_timeout_s);
+  v("approach_match_velocities", p.approach_match_velocities);
   v("descent_rate_mps", p.descent_rate_mps);
   v("descent_rate_near_mps", p.descent_rate_near_mps);
   v("descent_rate_final_mps", p.descent_rate_final_mps);

@@ -40,15 +40,20 @@ class PolynomialFit3 {
   Eigen::MatrixXd c_;  // 3 x (order+1), coefficients in tau
 };
 
-// Cubic approach trajectory of seed 000 eq. 29, from P_0 at t_0 to P_d at t_d with zero
-// velocity at both ends:
-//   Diff = P_d - P_0,  P(t) = P_0 + 3 Diff s^2 - 2 Diff s^3,  s = (t - t_0) / (t_d - t_0).
-// Before t_0 it returns P_0, after t_d it returns P_d (zero velocity, acceleration).
+// Cubic approach trajectory of seed 000 eq. 29, from P_0 at t_0 to P_d at t_d:
+//   Diff = P_d - P_0,  P(t) = P_0 + 3 Diff s^2 - 2 Diff s^3,  s = (t - t_0) / (t_d - t_0),
+// zero velocity at both ends (the paper starts from a hover over a target that stops). The
+// cubic Hermite form adds end velocities V_0 and V_d (both zero: eq. 29 exactly):
+//   P(t) = P_0 + Diff (3 s^2 - 2 s^3) + V_0 T (s - 2 s^2 + s^3) + V_d T (s^3 - s^2),  T = t_d - t_0,
+// so an approach entered while following a moving cart starts at the vehicle's velocity and
+// ends at the platform's instead of braking to a stop and chasing again.
+// Before t_0 it returns P_0 (velocity V_0); after t_d, P_d moved on at V_d (acceleration 0).
 class CubicTrajectory {
  public:
   CubicTrajectory() = default;
-  CubicTrajectory(const Eigen::Vector3d& p0_W, double t0_s, const Eigen::Vector3d& pd_W,
-                  double td_s);  // throws std::invalid_argument unless td_s > t0_s
+  CubicTrajectory(const Eigen::Vector3d& p0_W, double t0_s, const Eigen::Vector3d& pd_W, double td_s,
+                  const Eigen::Vector3d& v0_W = Eigen::Vector3d::Zero(),
+                  const Eigen::Vector3d& vd_W = Eigen::Vector3d::Zero());  // throws std::invalid_argument unless td_s > t0_s
 
   // Replaces the end point (replanning with a new prediction, t_0 and P_0 unchanged).
   void set_goal(const Eigen::Vector3d& pd_W) { pd_ = pd_W; }
@@ -65,7 +70,9 @@ class CubicTrajectory {
 
  private:
   Eigen::Vector3d p0_{Eigen::Vector3d::Zero()}, pd_{Eigen::Vector3d::Zero()};
+  Eigen::Vector3d v0_{Eigen::Vector3d::Zero()}, vd_{Eigen::Vector3d::Zero()};
   double t0_{0.0}, td_{1.0};
+  bool hermite_{false};  // an end velocity is not zero
 };
 
 // Scripted setpoints for test flights: hold a position, then fly straight to waypoints at a
