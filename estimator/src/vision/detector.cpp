@@ -725,7 +725,7 @@ void combine_sources(RingDetection& d, const std::vector<EllipseCandidate>& cand
           }
         }
         if (ok && code_yaw && !poses_agree(ref.X_CP, d.code.X_CP, p)) ok = false;
-        if (ok && yaw_from == "tracked pose" && !with_code) {
+        if (ok && prior && !with_code) {  // the yaw came from the track (its prior)
           // A lone central pair with the track's yaw has nothing else to check it (its one
           // centre reprojects onto itself): in blurred frames another set read as the central
           // one gave poses 30 % and 88 % off in range. It must stay near the track.
