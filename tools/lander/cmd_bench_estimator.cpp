@@ -32,21 +32,26 @@ namespace {
 constexpr const char* kUsage =
     "estimator --json FILE [--quick] [--synthetic] [--empty-frames N] [--yaws N]\n"
     "          [--shadows | --no-shadows | --shadows-only] [--altitudes A,..] [--tilts T,..]\n"
-    "          [--blurs B,..] [--save-misses DIR]\n"
+    "          [--blurs B,..] [--save-misses DIR] [--params VISION.yaml]\n"
     "  full sweep: views (altitude x tilt x blur) + empty frames + the shadow condition\n"
     "  (hard shadow bands 0.05/0.2/0.5/1 m wide at 20 % and 50 % light across the target,\n"
     "  1.5-10 m, tilt 0-45 deg, same frames for ours, AprilTag and ArUco; JSON `shadows`,\n"
     "  table on stderr); --quick: a small view sweep without shadows unless --shadows;\n"
-    "  --shadows-only: the shadow condition alone; --no-shadows: leave it out";
+    "  --shadows-only: the shadow condition alone; --no-shadows: leave it out;\n"
+    "  --params: vision keys (flight.estimator.vision) over the defaults for ours, e.g.\n"
+    "  `zoom_pass: true` (the peers are unchanged)";
 
 int bench_estimator(const Args& args) {
-  ArgParser a(args, {"json", "empty-frames", "yaws", "altitudes", "tilts", "blurs", "save-misses"},
+  ArgParser a(args, {"json", "empty-frames", "yaws", "altitudes", "tilts", "blurs", "save-misses", "params"},
               {"quick", "synthetic", "shadows", "no-shadows", "shadows-only"});
   if (!a.has("json")) throw UsageError("usage: lander bench estimator " + std::string(kUsage));
   if (a.flag("no-shadows") && (a.flag("shadows") || a.flag("shadows-only"))) {
     throw UsageError("--no-shadows contradicts --shadows / --shadows-only");
   }
   sim::Scenario s = sim::Scenario::defaults();
+  if (a.has("params")) {
+    read_params(load_yaml_file(a.value("params")), a.value("params"), s.flight.estimator.vision);
+  }
   s.validate();
   bench::EstimatorBenchParams bp;
   if (a.flag("quick")) {  // a smaller sweep for a fast look (not the README figures)

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <iomanip>
 #include <limits>
+#include <map>
 #include <optional>
 #include <sstream>
 
@@ -14,6 +15,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "lander/estimator/camera_cv.h"
+#include "lander/estimator/vision_layout.h"
 #include "vision/internal.h"
 
 namespace lander {
@@ -236,7 +238,8 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
       c.inner_index = pc.inner;
       c.harmonic_iterations = pc.iterations;
       d.centres.push_back(c);
-      d.ellipses[pc.outer].ring_id = d.ellipses[pc.inner].ring_id = pc.ring_id;
+      d.ellipses[pc.outer].ring_id = pc.ring_id;
+      if (pc.inner >= 0) d.ellipses[pc.inner].ring_id = pc.ring_id;  // -1: outer circle alone
       d.ellipses[pc.outer].outer = true;
     }
   };
@@ -276,10 +279,6 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
     }
   }
   fill_centres();
-  if (chosen.empty()) {
-    return fail(VisionStatus::NoRingIdentified,
-                std::to_string(pairs.size()) + " concentric pairs, no cross-ratio (eq. 9) matched");
-  }
   // Initial pose: IPPE (Collins and Bartoli 2014) - made for planar targets, closed form,
   // returns both solutions of the planar ambiguity so we can keep the consistent one, and
   // is exact with four points; SQPnP is general-purpose (3D) and slower for our 4-7 points.
@@ -300,7 +299,9 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
     for (int k : set) {
       const RingSet& ring = target.ring(pairs[k].ring_id);
       obs.push_back({ring.centre_P_m, ring.outer_radius_m, &cands[pairs[k].outer].points});
-      obs.push_back({ring.centre_P_m, ring.inner_radius_m, &cands[pairs[k].inner].points});
+      if (pairs[k].inner >= 0) {
+        obs.push_back({ring.centre_P_m, ring.inner_radius_m, &cands[pairs[k].inner].points});
+      }
     }
     return obs;
   };
@@ -382,6 +383,13 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
     }
     return fits[0].second;
   };
+  // The initial pose of the identified sets `chosen`; nullopt after fail() with the reason.
+  auto initial_pose = [&]() -> std::optional<Eigen::Isometry3d> {
+  if (chosen.empty()) {
+    fail(VisionStatus::NoRingIdentified,
+         std::to_string(pairs.size()) + " concentric pairs, no cross-ratio (eq. 9) matched");
+    return std::nullopt;
+  }
   Eigen::Isometry3d X0 = Eigen::Isometry3d::Identity();
   if (static_cast<int>(chosen.size()) < p.min_rings) {
     // Three sets (grazing views, far range, the frame's edge): P3P's up to four poses, each
@@ -392,9 +400,10 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
     std::string why3;
     if (p.three_ring_pose && chosen.size() == 3) X3 = three_set_pose(chosen, why3);
     if (!X3) {
-      return fail(VisionStatus::TooFewRings, std::to_string(chosen.size()) +
-                                                 " ring sets identified, need " +
-                                                 std::to_string(p.min_rings) + why3);
+      fail(VisionStatus::TooFewRings, std::to_string(chosen.size()) +
+                                          " ring sets identified, need " +
+                                          std::to_string(p.min_rings) + why3);
+      return std::nullopt;
     }
     X0 = *X3;
   } else {
@@ -409,10 +418,14 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
       // error, or put both IPPE solutions behind the camera), and retry.
       if (static_cast<int>(chosen.size()) <= p.min_rings) {
         fill_centres();
-        return fit ? fail(VisionStatus::PoseFailed,
-                          "identified centres inconsistent with the ring layout (max error " +
-                              std::to_string(fit->max_err) + " px)")
-                   : fail(VisionStatus::PoseFailed, "IPPE gave no solution in front");
+        if (fit) {
+          fail(VisionStatus::PoseFailed,
+               "identified centres inconsistent with the ring layout (max error " +
+                   std::to_string(fit->max_err) + " px)");
+        } else {
+          fail(VisionStatus::PoseFailed, "IPPE gave no solution in front");
+        }
+        return std::nullopt;
       }
       std::size_t drop = 0;
       std::optional<double> best;
@@ -427,12 +440,18 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
       }
       if (!best) {
         fill_centres();
-        return fail(VisionStatus::PoseFailed, "IPPE gave no solution in front");
+        fail(VisionStatus::PoseFailed, "IPPE gave no solution in front");
+        return std::nullopt;
       }
-      used_ellipse[pairs[chosen[drop]].outer] = used_ellipse[pairs[chosen[drop]].inner] = false;
+      used_ellipse[pairs[chosen[drop]].outer] = false;
+      if (pairs[chosen[drop]].inner >= 0) used_ellipse[pairs[chosen[drop]].inner] = false;
       chosen.erase(chosen.begin() + static_cast<std::ptrdiff_t>(drop));
     }
   }
+  return X0;
+  };
+  // From the initial pose: sets recovered by the layout, the conic refinement and the gates.
+  auto finish = [&](const Eigen::Isometry3d& X0) -> bool {
   // Use the layout to recover pairs whose ratio was ambiguous: an unused concentric pair at
   // the predicted centre of an unidentified ring set with a ratio within twice the tolerance.
   for (const auto& ring : target.rings) {
@@ -442,7 +461,7 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
     double best_d = p.max_centre_reproj_px;
     for (std::size_t k = 0; k < pairs.size(); ++k) {
       const auto& pc = pairs[k];
-      if (used_ellipse[pc.outer] || used_ellipse[pc.inner]) continue;
+      if (pc.inner < 0 || used_ellipse[pc.outer] || used_ellipse[pc.inner]) continue;
       if (std::abs(pc.ratio - ring.radius_ratio()) > 2 * p.ratio_tol) continue;
       const double dist = (pc.centre - pred).norm();
       if (dist < best_d) {
@@ -489,6 +508,86 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
   os << chosen.size() << " ring sets identified";
   d.reason = os.str();
   return true;
+  };
+  if (const auto X0 = initial_pose(); X0 && finish(*X0)) return true;
+  if (!p.layout_identification) return false;
+
+  // Identification by the layout (vision_layout.h): the ratio path gave no pose. Its result
+  // is restored unless the layout's assignment gives a pose through the same gates, so the
+  // frames the ratio path detects are untouched.
+  const RingDetection d_ratio = d;
+  const std::vector<int> chosen_ratio = chosen;
+  const std::vector<PairCandidate> pairs_ratio = pairs;
+  const std::vector<bool> used_ratio = used_ellipse;
+  std::vector<int> best_pair(cands.size(), -1);  // per ellipse: its pair as the outer circle
+  std::vector<bool> is_inner(cands.size(), false);
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    const auto& pc = pairs[k];
+    if (pc.inner < 0) continue;
+    is_inner[pc.inner] = true;
+    if (best_pair[pc.outer] < 0 || pc.err < pairs[best_pair[pc.outer]].err) {
+      best_pair[pc.outer] = static_cast<int>(k);
+    }
+  }
+  std::vector<LayoutCandidate> lc;
+  std::vector<int> lc_ellipse;
+  for (std::size_t i = 0; i < cands.size(); ++i) {
+    if (best_pair[i] < 0 && is_inner[i]) continue;  // an inner circle, not a set of its own
+    LayoutCandidate c;
+    c.outer = cands[i].undist;
+    if (best_pair[i] >= 0) {
+      c.centre = pairs[best_pair[i]].centre;
+      c.ratio = pairs[best_pair[i]].ratio;
+    } else {
+      c.centre = cands[i].undist.centre;
+    }
+    lc.push_back(c);
+    lc_ellipse.push_back(static_cast<int>(i));
+  }
+  std::string lwhy;
+  const std::optional<LayoutMatch> m = identify_by_layout(lc, target, p, lwhy);
+  if (m) {
+    chosen.clear();
+    std::fill(used_ellipse.begin(), used_ellipse.end(), false);
+    for (std::size_t s = 0; s < m->candidate.size(); ++s) {
+      const int e = lc_ellipse[m->candidate[s]];
+      const int id = m->ring_id[s];
+      int k = best_pair[e];
+      if (k < 0) {  // the outer circle alone: its ellipse centre stands for the set's centre
+        PairCandidate pc;
+        pc.outer = e;
+        pc.centre = cands[e].undist.centre;
+        pc.ratio = 0.0;
+        pairs.push_back(pc);
+        k = static_cast<int>(pairs.size()) - 1;
+      }
+      pairs[k].ring_id = id;
+      pairs[k].err = pairs[k].inner >= 0 ? std::abs(pairs[k].ratio - target.ring(id).radius_ratio()) : 0.0;
+      used_ellipse[pairs[k].outer] = true;
+      if (pairs[k].inner >= 0) used_ellipse[pairs[k].inner] = true;
+      chosen.push_back(k);
+    }
+    fill_centres();
+    const auto X0 = initial_pose();
+    if (X0 && finish(*X0)) {
+      std::ostringstream os;
+      os << "layout: " << d.reason << " (" << m->candidate.size() << " placed, "
+         << m->ratio_sets << " ratios, mean error " << m->mean_ratio_err << "; ratio path: "
+         << d_ratio.reason << ")";
+      d.reason = os.str();
+      d.by_layout = true;
+      return true;
+    }
+    lwhy = m->candidate.size() > 0 ? "placed " + std::to_string(m->candidate.size()) +
+                                         " sets, no pose: " + d.reason
+                                   : d.reason;
+  }
+  d = d_ratio;
+  chosen = chosen_ratio;
+  pairs = pairs_ratio;
+  used_ellipse = used_ratio;
+  d.reason += "; layout: " + lwhy;
+  return false;
 }
 
 
@@ -784,6 +883,130 @@ void RingTargetDetector::reset() {
   rejections_ = 0;
 }
 
+namespace {
+
+// Regions for the zoomed pass: clusters of the failed pass's small ellipses (a ring set and
+// its neighbours lie within a few of their radii of each other), the most populous first,
+// each grown by its own size on every side (the sets not found lie around the ones found).
+std::vector<cv::Rect> zoom_regions(const std::vector<DetectedEllipse>& ellipses,
+                                   const cv::Rect& full, const VisionParams& p) {
+  std::vector<int> idx;
+  for (int i = 0; i < static_cast<int>(ellipses.size()); ++i) {
+    const auto& e = ellipses[i].image;
+    if (e.a >= p.min_axis_px && e.a <= p.zoom_max_axis_px) idx.push_back(i);
+  }
+  const int n = static_cast<int>(idx.size());
+  std::vector<int> label(n);
+  for (int i = 0; i < n; ++i) label[i] = i;
+  auto root = [&](int i) {
+    while (label[i] != i) i = label[i] = label[label[i]];
+    return i;
+  };
+  for (int i = 0; i < n; ++i) {
+    for (int j = i + 1; j < n; ++j) {
+      const auto& a = ellipses[idx[i]].image;
+      const auto& b = ellipses[idx[j]].image;
+      if ((a.centre - b.centre).norm() <= 4.0 * std::max(a.a, b.a) + 4.0) label[root(i)] = root(j);
+    }
+  }
+  struct Cluster {
+    int count{0};
+    double x0{1e18}, y0{1e18}, x1{-1e18}, y1{-1e18};
+  };
+  std::map<int, Cluster> clusters;
+  for (int i = 0; i < n; ++i) {
+    const auto& e = ellipses[idx[i]].image;
+    Cluster& c = clusters[root(i)];
+    ++c.count;
+    c.x0 = std::min(c.x0, e.centre.x() - e.a);
+    c.y0 = std::min(c.y0, e.centre.y() - e.a);
+    c.x1 = std::max(c.x1, e.centre.x() + e.a);
+    c.y1 = std::max(c.y1, e.centre.y() + e.a);
+  }
+  std::vector<Cluster> order;
+  for (const auto& kv : clusters) {
+    if (kv.second.count >= 2) order.push_back(kv.second);
+  }
+  std::stable_sort(order.begin(), order.end(),
+                   [](const Cluster& a, const Cluster& b) { return a.count > b.count; });
+  std::vector<cv::Rect> out;
+  for (const Cluster& c : order) {
+    if (static_cast<int>(out.size()) >= p.zoom_max_regions) break;
+    const double gx = std::max(c.x1 - c.x0, 8.0), gy = std::max(c.y1 - c.y0, 8.0);
+    const double g = std::max(gx, gy);
+    const cv::Rect r =
+        cv::Rect(cv::Point(static_cast<int>(std::floor(vision_internal::clamp_coord(c.x0 - g))),
+                           static_cast<int>(std::floor(vision_internal::clamp_coord(c.y0 - g)))),
+                 cv::Point(static_cast<int>(std::ceil(vision_internal::clamp_coord(c.x1 + g))),
+                           static_cast<int>(std::ceil(vision_internal::clamp_coord(c.y1 + g))))) &
+        full;
+    if (r.width < 8 || r.height < 8 || r.width > p.zoom_max_region_px ||
+        r.height > p.zoom_max_region_px) {
+      continue;
+    }
+    out.push_back(r);
+  }
+  return out;
+}
+
+// The camera of `region` magnified `s` times: pixel centres at integers in both images, so
+// u_zoom = s (u - x0 + 0.5) - 0.5; the distortion acts on normalised coordinates and stays.
+CameraModel zoomed_camera(const CameraModel& cam, const cv::Rect& region, int s) {
+  CameraModel z = cam;
+  z.width_px = region.width * s;
+  z.height_px = region.height * s;
+  z.fx_px = cam.fx_px * s;
+  z.fy_px = cam.fy_px * s;
+  z.cx_px = s * (cam.cx_px - region.x + 0.5) - 0.5;
+  z.cy_px = s * (cam.cy_px - region.y + 0.5) - 0.5;
+  return z;
+}
+
+// Maps a detection made on the zoomed region back to the frame's pixels (the pose does not
+// change with the magnification; pixel residuals shrink by s).
+void unzoom(RingDetection& d, std::vector<EllipseCandidate>& cands, const cv::Rect& region,
+            int s) {
+  const Eigen::Vector2d t(s * (0.5 - region.x) - 0.5, s * (0.5 - region.y) - 0.5);
+  auto back = [&](const Eigen::Vector2d& u) -> Eigen::Vector2d { return (u - t) / s; };
+  Eigen::Matrix3d T = Eigen::Matrix3d::Identity();  // zoomed = T * frame (homogeneous)
+  T(0, 0) = T(1, 1) = s;
+  T(0, 2) = t.x();
+  T(1, 2) = t.y();
+  auto conic_back = [&](const Conic& C) {
+    Conic Cf = T.transpose() * C * T;
+    normalise_conic(Cf);
+    return Cf;
+  };
+  auto ellipse_back = [&](EllipseParams e) {
+    e.centre = back(e.centre);
+    e.a /= s;
+    e.b /= s;
+    return e;
+  };
+  for (auto& c : d.centres) {
+    c.centre_px = back(c.centre_px);
+    c.centre_image_px = back(c.centre_image_px);
+  }
+  for (auto& e : d.ellipses) {
+    e.C = conic_back(e.C);
+    e.image = ellipse_back(e.image);
+    e.fit_rms_px /= s;
+  }
+  for (auto& c : cands) {
+    c.C = conic_back(c.C);
+    c.image = ellipse_back(c.image);
+    c.undist = ellipse_back(c.undist);
+    for (auto& q : c.points) q = back(q);
+    c.fit_rms_px /= s;
+  }
+  d.reproj_err_px /= s;
+  d.reproj_err_sum_px2 /= static_cast<double>(s) * s;
+  d.edge_rms_px /= s;
+  d.roi = region;
+}
+
+}  // namespace
+
 RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vector2d& blur_px) {
   const auto t0 = std::chrono::steady_clock::now();
   RingDetection d;
@@ -884,10 +1107,45 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vect
       d.reason += "; " + os.str() + ": " + d2.reason;
     }
   }
+  // Zoomed pass (issue 12: far and grazing views): no pose, and the failed passes found small
+  // ellipses in a cluster: the cluster's region magnified twice (bicubic) and searched again
+  // with the camera model of the magnified region, under the same gates in its pixels (so
+  // twice as strict in the frame's). At 10-15 m and 45-60 deg the ring sets are 5-8 px across
+  // and the thin annuli's contours break or merge at the frame's resolution.
+  if (!d.detected && params_.zoom_pass && full.width >= 16 && full.height >= 16) {
+    whole_grey();
+    constexpr int kZoom = 2;
+    std::string tried;
+    for (const cv::Rect& region : zoom_regions(d.ellipses, full, params_)) {
+      cv::Mat zoomed;
+      cv::resize(grey(region), zoomed, cv::Size(), kZoom, kZoom, cv::INTER_CUBIC);
+      const CameraModel zcam = zoomed_camera(camera_, region, kZoom);
+      RingDetection dz;
+      std::vector<EllipseCandidate> cz;
+      const bool ok = search_region(zoomed, cv::Rect(0, 0, zoomed.cols, zoomed.rows), zcam,
+                                    target_, params_, dz, cz);
+      std::ostringstream os;
+      os << "zoomed x" << kZoom << " on " << region.width << "x" << region.height << " px at ("
+         << region.x << ", " << region.y << ")";
+      if (ok) {
+        unzoom(dz, cz, region, kZoom);
+        dz.reason = os.str() + ": " + dz.reason + " (frame: " + d.reason + ")";
+        dz.zoomed = true;
+        d = std::move(dz);
+        cands = std::move(cz);
+        break;
+      }
+      tried += "; " + os.str() + ": " + dz.reason;
+    }
+    if (!d.detected) d.reason += tried;
+  }
+  // The track (the last pose) informs this frame only when tracking is on: with it off each
+  // frame stands alone (single images, the estimator benchmark's independent views).
+  const Eigen::Isometry3d* track = params_.tracking && have_prediction_ ? &X_CP_pred_ : nullptr;
   // Code map (seed 001): searched unless the pose (this frame's rings, else the track) shows
   // its cells smaller than code_min_cell_px.
   if (params_.code_enabled && target_.code.cells > 0 && full.width >= 16 && full.height >= 16) {
-    const Eigen::Isometry3d* ref = d.detected ? &d.X_CP : (have_prediction_ ? &X_CP_pred_ : nullptr);
+    const Eigen::Isometry3d* ref = d.detected ? &d.X_CP : track;
     bool search = true;
     if (ref != nullptr) {
       const double z = ref->translation().z();
@@ -899,7 +1157,7 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vect
       d.code = detect_code_pattern(grey, camera_, target_, params_);
     }
   }
-  combine_sources(d, cands, camera_.K(), target_, params_, have_prediction_ ? &X_CP_pred_ : nullptr);
+  combine_sources(d, cands, camera_.K(), target_, params_, track);
 
   // Tracking state: constant-pose prediction, dropped after a few misses.
   if (d.detected) {
@@ -989,6 +1247,8 @@ std::string to_json(const RingDetection& d) {
   j["rho"] = d.rho;
   j["used_roi"] = d.used_roi;
   j["deblurred"] = d.deblurred;
+  j["zoomed"] = d.zoomed;
+  j["by_layout"] = d.by_layout;
   j["roi"] = {d.roi.x, d.roi.y, d.roi.width, d.roi.height};
   j["time_ms"] = d.time_ms;
   Json centres = Json::array();

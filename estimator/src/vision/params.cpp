@@ -33,6 +33,19 @@ void VisionParams::validate() const {
   require(ratio_tol > 0 && ratio_tol < 0.5, "ratio_tol", "must be in (0, 0.5)");
   require(min_rings >= 4, "min_rings", "must be >= 4 (planar PnP needs four points)");
   require(max_centre_reproj_px > 0, "max_centre_reproj_px", "must be > 0");
+  require(layout_ratio_tol > 0 && layout_ratio_tol < 0.5, "layout_ratio_tol", "must be in (0, 0.5)");
+  require(layout_max_ratio_bias >= 0 && layout_max_ratio_bias < 0.5, "layout_max_ratio_bias",
+          "must be in [0, 0.5)");
+  require(layout_ratio_margin >= 0, "layout_ratio_margin", "must be >= 0");
+  require(layout_min_ratio_sets >= 1, "layout_min_ratio_sets",
+          "must be >= 1 (the ratios decide the rotation)");
+  require(layout_position_tol > 0 && layout_position_tol < 0.5, "layout_position_tol",
+          "must be in (0, 0.5) (neighbouring sets are one hexagon radius apart)");
+  require(layout_size_tol > 0 && layout_size_tol <= 1, "layout_size_tol", "must be in (0, 1]");
+  require(zoom_max_axis_px > 0, "zoom_max_axis_px", "must be > 0");
+  require(zoom_max_region_px >= 16 && zoom_max_region_px <= 2048, "zoom_max_region_px",
+          "must be in [16, 2048]");
+  require(zoom_max_regions >= 0 && zoom_max_regions <= 16, "zoom_max_regions", "must be in [0, 16]");
   require(refine_max_iter >= 0, "refine_max_iter", "must be >= 0");
   require(refine_points_per_ellipse >= 6, "refine_points_per_ellipse", "must be >= 6");
   require(max_reproj_err_px > 0, "max_reproj_err_px", "must be > 0");

@@ -212,7 +212,7 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
     profile = std::make_unique<CsvWriter>(
         o.vision_profile_csv, std::vector<std::string>{"frame", "t_s", "height_m", "detected", "status", "tracking_roi",
                                                        "code_searched", "rings", "predicted_blur_px", "deblurred", "vision_height_m",
-                                                       "detector_ms", "detector_cpu_ms", "path_ms"});
+                                                       "detector_ms", "detector_cpu_ms", "path_ms", "zoomed", "by_layout"});
   }
   // A finished detection, in frame order on the main thread: outlier hook, the result to
   // deliver, the recorder, the delivery queue.
@@ -232,6 +232,7 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
                                   : std::numeric_limits<double>::quiet_NaN(),
                    4);
       profile->num(j.detect_ms, 3).num(j.detect_cpu_ms, 3).num(j.path_ms, 3);
+      profile->integer(j.det.zoomed ? 1 : 0).integer(j.det.by_layout ? 1 : 0);
       profile->end_row();
     }
     const double t_mid = j.frame.exposure.mid();

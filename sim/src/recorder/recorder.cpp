@@ -161,6 +161,8 @@ void Recorder::on_frame(const CameraFrame& frame, const FrameCapture& cap, const
   if (det.detected) {
     ++detections_;
     if (det.deblurred) ++detections_deblurred_;
+    if (det.zoomed) ++detections_zoomed_;
+    if (det.by_layout) ++detections_by_layout_;
     if (det.keyframe) ++keyframes_;
     if (det.keyframe_status == KeyframeStatus::Rejected) ++keyframes_rejected_;
   } else {
@@ -331,6 +333,8 @@ void Recorder::finish(const Outcome& outcome, const flight::FlightStack& fs, Jso
   vision["frames"] = frames_;
   vision["detections"] = detections_;
   vision["detections_deblurred"] = detections_deblurred_;
+  vision["detections_zoomed"] = detections_zoomed_;
+  vision["detections_by_layout"] = detections_by_layout_;
   vision["keyframes"] = keyframes_;
   vision["keyframes_rejected"] = keyframes_rejected_;
   Json reasons = Json::object();

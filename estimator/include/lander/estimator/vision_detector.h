@@ -123,6 +123,10 @@ struct RingDetection {
   bool used_roi{false};          ///< found in the predicted region (tracking)
   bool deblurred{false};         ///< the pose came from the frame deconvolved for the
                                  ///< predicted blur (detect()'s blur_px)
+  bool zoomed{false};            ///< the pose came from the zoomed pass (a small target's
+                                 ///< region magnified twice)
+  bool by_layout{false};         ///< its ring sets were identified by the layout
+                                 ///< (vision_layout.h), not ratio by ratio
   cv::Rect roi;                  ///< region searched last (full frame if no ROI)
   double time_ms{0.0};           ///< wall time of detect() (ms)
 };

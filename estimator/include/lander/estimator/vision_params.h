@@ -62,6 +62,35 @@ struct VisionParams {
                                      ///< centres, the solution that fits the six conics (and
                                      ///< clearly better than any other P3P solution)
   double max_centre_reproj_px{3.0};  ///< centre outlier gate after the initial PnP (px)
+  // ---- identification by the layout (issue 12: far and grazing views; vision_layout.h) ----
+  bool layout_identification{false};  ///< when the ratio-by-ratio identification gives no
+                                     ///< pose, identify the sets by their places on the
+                                     ///< hexagon, the ratios judged together; the pose
+                                     ///< passes the same gates. Off until checked in the
+                                     ///< closed loop (README, estimator benchmark)
+  double layout_ratio_tol{0.04};     ///< mean |ratio - model - common bias| of the placed
+                                     ///< sets; none may exceed twice this
+  double layout_max_ratio_bias{0.12};  ///< the common bias removed lies within [-this,
+                                     ///< this / 2] (small rings read 0.02-0.10 low)
+  double layout_ratio_margin{0.06};  ///< another identity (any) whose mean ratio error is
+                                     ///< within this of the best makes the frame ambiguous
+                                     ///< (synthetic: 0.03 named 0.4 % wrongly at 0.05 of
+                                     ///< ratio noise, 0.06 none in 1200 views)
+  int layout_min_ratio_sets{3};      ///< measured ratios (inner circles found) needed
+  double layout_position_tol{0.2};   ///< a set's rectified centre within this fraction of
+                                     ///< its distance from the centre (weak perspective
+                                     ///< leaves 1-7 %; blur inflates the central circle)
+  double layout_size_tol{0.4};       ///< rectified outer circle within a factor 1 + this of
+                                     ///< the model's, and its axis ratio below 1 + this
+  // ---- zoomed pass (issue 12: far and grazing views) ----
+  bool zoom_pass{false};             ///< no pose from the frame: magnify the regions where the
+                                     ///< failed passes found clusters of small ellipses twice
+                                     ///< and search them again (same gates, in zoomed px).
+                                     ///< Off until checked in the closed loop
+  double zoom_max_axis_px{24.0};     ///< ellipses up to this semi-major axis seed a region
+                                     ///< (larger rings are resolved at the frame's scale)
+  int zoom_max_region_px{400};       ///< regions larger than this (px, either side) are skipped
+  int zoom_max_regions{2};           ///< at most this many regions a frame, most ellipses first
   // ---- blur (issue 12): the motion blur the caller predicts for the frame ----
   bool predict_blur{true};           ///< the flight stack predicts each frame's blur from its
                                      ///< own motion estimate and the exposure time and hands it
@@ -85,7 +114,9 @@ struct VisionParams {
   int keyframe_reset_after{5};       ///< after this many consecutive rejections, restart
 
   // ---- tracking ----
-  bool tracking{true};               ///< search a predicted region first
+  bool tracking{true};               ///< search a predicted region first; the last pose also
+                                     ///< gives a lone central pair its yaw and may skip the
+                                     ///< code search (off: every frame stands alone)
   double roi_margin{0.35};           ///< ROI grows by this fraction of its size on each side
   int max_frames_without_detection{3};  ///< drop the prediction after this many misses
 
@@ -148,6 +179,17 @@ void visit_fields(V& v, VisionParams& p) {
   v("min_rings", p.min_rings);
   v("three_ring_pose", p.three_ring_pose);
   v("max_centre_reproj_px", p.max_centre_reproj_px);
+  v("layout_identification", p.layout_identification);
+  v("layout_ratio_tol", p.layout_ratio_tol);
+  v("layout_max_ratio_bias", p.layout_max_ratio_bias);
+  v("layout_ratio_margin", p.layout_ratio_margin);
+  v("layout_min_ratio_sets", p.layout_min_ratio_sets);
+  v("layout_position_tol", p.layout_position_tol);
+  v("layout_size_tol", p.layout_size_tol);
+  v("zoom_pass", p.zoom_pass);
+  v("zoom_max_axis_px", p.zoom_max_axis_px);
+  v("zoom_max_region_px", p.zoom_max_region_px);
+  v("zoom_max_regions", p.zoom_max_regions);
   v("predict_blur", p.predict_blur);
   v("deblur_min_px", p.deblur_min_px);
   v("deblur_noise_ratio", p.deblur_noise_ratio);

@@ -1,0 +1,241 @@
+// Identification of ring sets by the target's layout (vision_layout.h).
+#include "lander/estimator/vision_layout.h"
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <sstream>
+
+#include <Eigen/Dense>
+
+namespace lander {
+namespace {
+
+using Cplx = std::complex<double>;
+
+Cplx to_c(const Eigen::Vector2d& v) { return {v.x(), v.y()}; }
+
+// One hypothesis: the candidate taken as the central set's circle of radius r0_m, the
+// similarity (scale k, rotation) from the model plane to the rectified plane, and the sets
+// matched under it.
+struct Hypothesis {
+  int frame{-1};                  // the candidate whose circle rectified the plane
+  std::vector<int> cand_of_ring;  // per target.rings index: candidate, -1 none
+  int matched{0};                 // rings matched, the central one included
+  int ratio_sets{0};
+  double mean_err{0.0};
+  double max_err{0.0};
+  double bias{0.0};               // the common ratio offset removed
+};
+
+bool conflict(const Hypothesis& a, const Hypothesis& b) {
+  for (std::size_t i = 0; i < a.cand_of_ring.size(); ++i) {
+    const int ca = a.cand_of_ring[i], cb = b.cand_of_ring[i];
+    if (ca >= 0 && cb >= 0 && ca != cb) return true;
+    if (ca < 0) continue;
+    // The same candidate under another identity.
+    for (std::size_t k = 0; k < b.cand_of_ring.size(); ++k) {
+      if (k != i && b.cand_of_ring[k] == ca) return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
+std::optional<LayoutMatch> identify_by_layout(const std::vector<LayoutCandidate>& cands,
+                                              const TargetGeometry& target,
+                                              const VisionParams& p, std::string& why) {
+  const int nr = static_cast<int>(target.rings.size());
+  int centre_ring = -1;
+  for (int i = 0; i < nr; ++i) {
+    if (target.rings[i].centre_P_m.norm() < 1e-9) centre_ring = i;
+  }
+  if (centre_ring < 0 || nr < 2) {
+    why = "the target has no central ring set";
+    return std::nullopt;
+  }
+  double hex_radius = 0.0;  // the farthest set from the centre (the hexagon's radius)
+  for (const auto& r : target.rings) hex_radius = std::max(hex_radius, r.centre_P_m.norm());
+  const int n = static_cast<int>(cands.size());
+  std::vector<Hypothesis> hyps;
+  int frames_tried = 0;
+  for (int c0 = 0; c0 < n; ++c0) {
+    const LayoutCandidate& f = cands[c0];
+    if (!(f.outer.a > 0 && f.outer.b > 0)) continue;
+    // The candidate taken as set i0's outer circle (a lone ellipse: also the central set's
+    // inner circle, which the code pattern inside may leave as the only one found).
+    for (int i0 = 0; i0 < nr; ++i0) {
+      std::vector<double> radii{target.rings[i0].outer_radius_m};
+      if (f.ratio < 0 && i0 == centre_ring) radii.push_back(target.rings[i0].inner_radius_m);
+      const Eigen::Vector2d m_f = target.rings[i0].centre_P_m;
+      for (double r0 : radii) {
+        ++frames_tried;
+        // Image -> rectified plane (m, origin at the candidate's centre) up to a rotation,
+        // with the mirror sense of a plane seen from its front in an image whose y axis
+        // points down (the map's determinant < 0).
+        Eigen::Matrix2d A = Eigen::Vector2d(r0 / f.outer.a, -r0 / f.outer.b).asDiagonal();
+        A = A * Eigen::Rotation2Dd(-f.outer.angle_rad).toRotationMatrix();
+        std::vector<Eigen::Vector2d> q(n);
+        std::vector<double> radius(n, -1.0);  // rectified outer radius (m), -1 if not round
+        for (int j = 0; j < n; ++j) {
+          q[j] = A * (cands[j].centre - f.centre);
+          const Eigen::Matrix2d M =
+              A * Eigen::Rotation2Dd(cands[j].outer.angle_rad).toRotationMatrix() *
+              Eigen::Vector2d(cands[j].outer.a, cands[j].outer.b).asDiagonal();
+          const Eigen::JacobiSVD<Eigen::Matrix2d> svd(M);
+          const Eigen::Vector2d sv = svd.singularValues();
+          if (sv(1) > 0 && sv(0) / sv(1) <= 1.0 + p.layout_size_tol) {
+            radius[j] = std::sqrt(sv(0) * sv(1));
+          }
+        }
+        const double tol = p.layout_position_tol * hex_radius;
+        // Each (candidate, set) at about the right distance seeds a rotation.
+        for (int j0 = 0; j0 < n; ++j0) {
+          if (j0 == c0 || radius[j0] < 0) continue;
+          for (int i1 = 0; i1 < nr; ++i1) {
+            if (i1 == i0) continue;
+            const Eigen::Vector2d m1 = target.rings[i1].centre_P_m - m_f;
+            if (std::abs(q[j0].norm() - m1.norm()) > tol) continue;
+            Cplx sim = to_c(q[j0]) / to_c(m1);  // k e^{i theta}: model -> rectified
+            Hypothesis h;
+            for (int pass = 0; pass < 2; ++pass) {
+              // Greedy one-to-one matching, nearest first.
+              struct Near {
+                double d;
+                int i, j;
+              };
+              std::vector<Near> near;
+              const double k = std::abs(sim);
+              for (int i = 0; i < nr; ++i) {
+                if (i == i0) continue;
+                const RingSet& ring = target.rings[i];
+                const Cplx pred = sim * to_c(ring.centre_P_m - m_f);
+                for (int j = 0; j < n; ++j) {
+                  if (j == c0 || radius[j] < 0) continue;
+                  const double rel = radius[j] / (k * ring.outer_radius_m);
+                  if (rel > 1.0 + p.layout_size_tol || rel < 1.0 / (1.0 + p.layout_size_tol)) {
+                    continue;
+                  }
+                  const double d = std::abs(to_c(q[j]) - pred);
+                  if (d <= tol * k) near.push_back({d, i, j});
+                }
+              }
+              std::sort(near.begin(), near.end(), [](const Near& a, const Near& b) {
+                return a.d < b.d || (a.d == b.d && (a.i < b.i || (a.i == b.i && a.j < b.j)));
+              });
+              h = Hypothesis{};
+              h.frame = c0;
+              h.cand_of_ring.assign(nr, -1);
+              h.cand_of_ring[i0] = c0;
+              std::vector<bool> used(n, false);
+              used[c0] = true;
+              for (const Near& e : near) {
+                if (h.cand_of_ring[e.i] >= 0 || used[e.j]) continue;
+                h.cand_of_ring[e.i] = e.j;
+                used[e.j] = true;
+              }
+              // Refit the similarity on the matched sets (least squares through the frame).
+              Cplx num(0, 0);
+              double den = 0.0;
+              for (int i = 0; i < nr; ++i) {
+                const int j = h.cand_of_ring[i];
+                if (i == i0 || j < 0) continue;
+                const Cplx m = to_c(target.rings[i].centre_P_m - m_f);
+                num += std::conj(m) * to_c(q[j]);
+                den += std::norm(m);
+              }
+              if (den > 0) sim = num / den;
+            }
+            h.matched = 0;
+            std::vector<double> e;  // measured - model ratio of each set with an inner circle
+            for (int i = 0; i < nr; ++i) {
+              const int j = h.cand_of_ring[i];
+              if (j < 0) continue;
+              ++h.matched;
+              if (cands[j].ratio >= 0) e.push_back(cands[j].ratio - target.rings[i].radius_ratio());
+            }
+            if (h.matched < 3) continue;
+            // Small rings read their ratios off by a common amount (blur and the threshold
+            // move both edges of every thin annulus the same way: the bench's far views read
+            // 0.02-0.10 low): that bias, the median difference within its bounds, is removed
+            // before the ratios are compared, so that a hypothesis is not preferred for
+            // absorbing it (the 180 deg turn of the hexagon maps each set onto one whose
+            // ratio differs by 0.08-0.1).
+            h.ratio_sets = static_cast<int>(e.size());
+            if (!e.empty()) {
+              std::vector<double> sorted = e;
+              std::sort(sorted.begin(), sorted.end());
+              const std::size_t mid = sorted.size() / 2;
+              double bias = sorted.size() % 2 ? sorted[mid] : 0.5 * (sorted[mid - 1] + sorted[mid]);
+              bias = std::clamp(bias, -p.layout_max_ratio_bias, 0.5 * p.layout_max_ratio_bias);
+              double sum = 0.0;
+              for (double x : e) {
+                sum += std::abs(x - bias);
+                h.max_err = std::max(h.max_err, std::abs(x - bias));
+              }
+              h.mean_err = sum / static_cast<double>(e.size());
+              h.bias = bias;
+            }
+            const bool dup = std::any_of(hyps.begin(), hyps.end(), [&](const Hypothesis& o) {
+              return o.cand_of_ring == h.cand_of_ring;
+            });
+            if (!dup) hyps.push_back(std::move(h));
+          }
+        }
+      }
+    }
+  }
+  auto valid = [&](const Hypothesis& h) {
+    return h.matched >= p.min_rings && h.ratio_sets >= p.layout_min_ratio_sets &&
+           h.mean_err <= p.layout_ratio_tol && h.max_err <= 2.0 * p.layout_ratio_tol;
+  };
+  const Hypothesis* best = nullptr;
+  int n_valid = 0;
+  int most_matched = 0;
+  for (const auto& h : hyps) {
+    most_matched = std::max(most_matched, h.matched);
+    if (!valid(h)) continue;
+    ++n_valid;
+    if (!best || h.matched > best->matched ||
+        (h.matched == best->matched && h.mean_err < best->mean_err)) {
+      best = &h;
+    }
+  }
+  std::ostringstream os;
+  if (!best) {
+    os << "no layout hypothesis with " << p.min_rings << " sets and " << p.layout_min_ratio_sets
+       << " agreeing ratios (" << hyps.size() << " hypotheses from " << frames_tried
+       << " circle guesses, at most " << most_matched << " sets placed)";
+    why = os.str();
+    return std::nullopt;
+  }
+  // Any other identity placed about as widely and fitting the ratios about as well, valid or
+  // not (the true identity can miss the tolerance while a wrong one meets it), makes the
+  // frame ambiguous.
+  double runner = -1.0;
+  for (const auto& h : hyps) {
+    if (&h == best || h.ratio_sets == 0 || !conflict(h, *best)) continue;
+    if (runner < 0 || h.mean_err < runner) runner = h.mean_err;
+    if (h.matched >= best->matched - 1 && h.mean_err <= best->mean_err + p.layout_ratio_margin) {
+      os << "ambiguous layout: " << best->matched << " sets with mean ratio error "
+         << best->mean_err << " against " << h.matched << " sets with " << h.mean_err
+         << " under another identity (margin " << p.layout_ratio_margin << ")";
+      why = os.str();
+      return std::nullopt;
+    }
+  }
+  LayoutMatch m;
+  for (int i = 0; i < nr; ++i) {
+    if (best->cand_of_ring[i] < 0) continue;
+    m.candidate.push_back(best->cand_of_ring[i]);
+    m.ring_id.push_back(target.rings[i].id);
+  }
+  m.ratio_sets = best->ratio_sets;
+  m.mean_ratio_err = best->mean_err;
+  m.runner_up_err = runner;
+  m.ratio_bias = best->bias;
+  return m;
+}
+
+}  // namespace lander
