@@ -2,6 +2,8 @@
 // both off by default): on exactly drawn frames at 12-16 m and 40-60 deg from the platform
 // normal, every pose either pass reports must be right (position and rotation against the
 // truth), and target-free frames with ring-like decoys must stay empty.
+#include <iostream>
+
 #include <gtest/gtest.h>
 
 #include "lander/estimator/vision_detector.h"

@@ -3,7 +3,6 @@
 // small rings, decoys. The rule under test: an identity is either right or not given.
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -50,8 +49,8 @@ Outcome run_views(int n, double sigma, double bias, int drop, int missing, int d
   std::normal_distribution<double> N(0.0, 1.0);
   Outcome o;
   for (int v = 0; v < n; ++v) {
-    const Eigen::Isometry3d X = test::look_at_pose(8.0 + 8.0 * U(rng), 65.0 * U(rng),
-                                                   360.0 * U(rng), 360.0 * U(rng));
+    const Eigen::Isometry3d X =
+        test::look_at_pose(8.0 + 8.0 * U(rng), 65.0 * U(rng), 360.0 * U(rng), 360.0 * U(rng));
     std::vector<LayoutCandidate> c = project_sets(g, X, cam);
     EXPECT_EQ(c.size(), g.rings.size());
     if (c.size() != g.rings.size()) return o;
@@ -74,7 +73,8 @@ Outcome run_views(int n, double sigma, double bias, int drop, int missing, int d
     const double px_per_m = c[0].outer.a / g.rings[0].outer_radius_m;
     for (int k = 0; k < decoys;) {
       LayoutCandidate d;
-      d.outer.centre = c[0].centre + px_per_m * Eigen::Vector2d(5.0 * (U(rng) - 0.5), 5.0 * (U(rng) - 0.5));
+      d.outer.centre =
+          c[0].centre + px_per_m * Eigen::Vector2d(5.0 * (U(rng) - 0.5), 5.0 * (U(rng) - 0.5));
       bool on_rings = false;
       for (const auto& x : c) on_rings |= (x.centre - d.outer.centre).norm() < 0.4 * px_per_m;
       if (on_rings) continue;
@@ -132,8 +132,7 @@ TEST(VisionLayout, RatiosThatCannotTellTheRotationAreRefused) {
   const TargetGeometry& g = test::default_target();
   const CameraModel cam;
   VisionParams p;
-  std::vector<LayoutCandidate> c =
-      project_sets(g, test::look_at_pose(12.0, 40.0, 20.0, 10.0), cam);
+  std::vector<LayoutCandidate> c = project_sets(g, test::look_at_pose(12.0, 40.0, 20.0, 10.0), cam);
   for (auto& x : c) x.ratio = 0.45;
   std::string why;
   EXPECT_FALSE(identify_by_layout(c, g, p, why).has_value());

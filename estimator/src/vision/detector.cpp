@@ -385,129 +385,129 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
   };
   // The initial pose of the identified sets `chosen`; nullopt after fail() with the reason.
   auto initial_pose = [&]() -> std::optional<Eigen::Isometry3d> {
-  if (chosen.empty()) {
-    fail(VisionStatus::NoRingIdentified,
-         std::to_string(pairs.size()) + " concentric pairs, no cross-ratio (eq. 9) matched");
-    return std::nullopt;
-  }
-  Eigen::Isometry3d X0 = Eigen::Isometry3d::Identity();
-  if (static_cast<int>(chosen.size()) < p.min_rings) {
-    // Three sets (grazing views, far range, the frame's edge): P3P's up to four poses, each
-    // refined on the six conics; the one that fits them is kept if it fits well and clearly
-    // better than the others (the conics decide P3P's ambiguity; three points alone always
-    // reproject exactly).
-    std::optional<Eigen::Isometry3d> X3;
-    std::string why3;
-    if (p.three_ring_pose && chosen.size() == 3) X3 = three_set_pose(chosen, why3);
-    if (!X3) {
-      fail(VisionStatus::TooFewRings, std::to_string(chosen.size()) +
-                                          " ring sets identified, need " +
-                                          std::to_string(p.min_rings) + why3);
+    if (chosen.empty()) {
+      fail(VisionStatus::NoRingIdentified,
+           std::to_string(pairs.size()) + " concentric pairs, no cross-ratio (eq. 9) matched");
       return std::nullopt;
     }
-    X0 = *X3;
-  } else {
-    for (;;) {
-      const std::optional<Fit> fit = ippe(chosen);
-      if (fit && fit->max_err <= p.max_centre_reproj_px) {
-        X0 = fit->X;
-        break;
+    Eigen::Isometry3d X0 = Eigen::Isometry3d::Identity();
+    if (static_cast<int>(chosen.size()) < p.min_rings) {
+      // Three sets (grazing views, far range, the frame's edge): P3P's up to four poses, each
+      // refined on the six conics; the one that fits them is kept if it fits well and clearly
+      // better than the others (the conics decide P3P's ambiguity; three points alone always
+      // reproject exactly).
+      std::optional<Eigen::Isometry3d> X3;
+      std::string why3;
+      if (p.three_ring_pose && chosen.size() == 3) X3 = three_set_pose(chosen, why3);
+      if (!X3) {
+        fail(VisionStatus::TooFewRings, std::to_string(chosen.size()) +
+                                            " ring sets identified, need " +
+                                            std::to_string(p.min_rings) + why3);
+        return std::nullopt;
       }
-      // Hexagon layout check: drop the centre whose removal leaves the most consistent rest
-      // (a misidentified centre can pull the fit so that a correct one has the largest
-      // error, or put both IPPE solutions behind the camera), and retry.
-      if (static_cast<int>(chosen.size()) <= p.min_rings) {
-        fill_centres();
-        if (fit) {
-          fail(VisionStatus::PoseFailed,
-               "identified centres inconsistent with the ring layout (max error " +
-                   std::to_string(fit->max_err) + " px)");
-        } else {
+      X0 = *X3;
+    } else {
+      for (;;) {
+        const std::optional<Fit> fit = ippe(chosen);
+        if (fit && fit->max_err <= p.max_centre_reproj_px) {
+          X0 = fit->X;
+          break;
+        }
+        // Hexagon layout check: drop the centre whose removal leaves the most consistent rest
+        // (a misidentified centre can pull the fit so that a correct one has the largest
+        // error, or put both IPPE solutions behind the camera), and retry.
+        if (static_cast<int>(chosen.size()) <= p.min_rings) {
+          fill_centres();
+          if (fit) {
+            fail(VisionStatus::PoseFailed,
+                 "identified centres inconsistent with the ring layout (max error " +
+                     std::to_string(fit->max_err) + " px)");
+          } else {
+            fail(VisionStatus::PoseFailed, "IPPE gave no solution in front");
+          }
+          return std::nullopt;
+        }
+        std::size_t drop = 0;
+        std::optional<double> best;
+        for (std::size_t i = 0; i < chosen.size(); ++i) {
+          std::vector<int> rest = chosen;
+          rest.erase(rest.begin() + static_cast<std::ptrdiff_t>(i));
+          const std::optional<Fit> f = ippe(rest);
+          if (f && (!best || f->max_err < *best)) {
+            best = f->max_err;
+            drop = i;
+          }
+        }
+        if (!best) {
+          fill_centres();
           fail(VisionStatus::PoseFailed, "IPPE gave no solution in front");
+          return std::nullopt;
         }
-        return std::nullopt;
+        used_ellipse[pairs[chosen[drop]].outer] = false;
+        if (pairs[chosen[drop]].inner >= 0) used_ellipse[pairs[chosen[drop]].inner] = false;
+        chosen.erase(chosen.begin() + static_cast<std::ptrdiff_t>(drop));
       }
-      std::size_t drop = 0;
-      std::optional<double> best;
-      for (std::size_t i = 0; i < chosen.size(); ++i) {
-        std::vector<int> rest = chosen;
-        rest.erase(rest.begin() + static_cast<std::ptrdiff_t>(i));
-        const std::optional<Fit> f = ippe(rest);
-        if (f && (!best || f->max_err < *best)) {
-          best = f->max_err;
-          drop = i;
-        }
-      }
-      if (!best) {
-        fill_centres();
-        fail(VisionStatus::PoseFailed, "IPPE gave no solution in front");
-        return std::nullopt;
-      }
-      used_ellipse[pairs[chosen[drop]].outer] = false;
-      if (pairs[chosen[drop]].inner >= 0) used_ellipse[pairs[chosen[drop]].inner] = false;
-      chosen.erase(chosen.begin() + static_cast<std::ptrdiff_t>(drop));
     }
-  }
-  return X0;
+    return X0;
   };
   // From the initial pose: sets recovered by the layout, the conic refinement and the gates.
   auto finish = [&](const Eigen::Isometry3d& X0) -> bool {
-  // Use the layout to recover pairs whose ratio was ambiguous: an unused concentric pair at
-  // the predicted centre of an unidentified ring set with a ratio within twice the tolerance.
-  for (const auto& ring : target.rings) {
-    if (id_used(ring.id)) continue;
-    const Eigen::Vector2d pred = project(K, X0, ring.centre_P_m);
-    int best = -1;
-    double best_d = p.max_centre_reproj_px;
-    for (std::size_t k = 0; k < pairs.size(); ++k) {
-      const auto& pc = pairs[k];
-      if (pc.inner < 0 || used_ellipse[pc.outer] || used_ellipse[pc.inner]) continue;
-      if (std::abs(pc.ratio - ring.radius_ratio()) > 2 * p.ratio_tol) continue;
-      const double dist = (pc.centre - pred).norm();
-      if (dist < best_d) {
-        best_d = dist;
-        best = static_cast<int>(k);
+    // Use the layout to recover pairs whose ratio was ambiguous: an unused concentric pair at
+    // the predicted centre of an unidentified ring set with a ratio within twice the tolerance.
+    for (const auto& ring : target.rings) {
+      if (id_used(ring.id)) continue;
+      const Eigen::Vector2d pred = project(K, X0, ring.centre_P_m);
+      int best = -1;
+      double best_d = p.max_centre_reproj_px;
+      for (std::size_t k = 0; k < pairs.size(); ++k) {
+        const auto& pc = pairs[k];
+        if (pc.inner < 0 || used_ellipse[pc.outer] || used_ellipse[pc.inner]) continue;
+        if (std::abs(pc.ratio - ring.radius_ratio()) > 2 * p.ratio_tol) continue;
+        const double dist = (pc.centre - pred).norm();
+        if (dist < best_d) {
+          best_d = dist;
+          best = static_cast<int>(k);
+        }
+      }
+      if (best >= 0) {
+        pairs[best].ring_id = ring.id;
+        pairs[best].err = std::abs(pairs[best].ratio - ring.radius_ratio());
+        used_ellipse[pairs[best].outer] = used_ellipse[pairs[best].inner] = true;
+        chosen.push_back(best);
       }
     }
-    if (best >= 0) {
-      pairs[best].ring_id = ring.id;
-      pairs[best].err = std::abs(pairs[best].ratio - ring.radius_ratio());
-      used_ellipse[pairs[best].outer] = used_ellipse[pairs[best].inner] = true;
-      chosen.push_back(best);
-    }
-  }
-  fill_centres();
+    fill_centres();
 
-  // Levenberg-Marquardt on the conic reprojection cost, eq. (14)-(15).
-  const std::vector<vision_internal::ConicObservation> obs = conic_observations(chosen);
-  const auto ref = vision_internal::refine_pose_conics(K, X0, obs, p.refine_points_per_ellipse,
-                                                       p.refine_max_iter);
-  if (!ref.ok) return fail(VisionStatus::PoseFailed, "conic refinement (eq. 14-15) failed");
-  d.X_CP = ref.X_CP;
-  d.cov = ref.cov;
-  d.edge_rms_px = ref.rms_px;
-  d.refine_iterations = ref.iterations;
-  // Eq. (30): sum over identified centres of |x_i - H X_i|^2.
-  double sum = 0.0;
-  for (int k : chosen) {
-    sum += (project(K, d.X_CP, target.ring(pairs[k].ring_id).centre_P_m) - pairs[k].centre)
-               .squaredNorm();
-  }
-  d.reproj_err_sum_px2 = sum;
-  d.reproj_err_px = std::sqrt(sum / chosen.size());
-  if (d.reproj_err_px > p.max_reproj_err_px || d.edge_rms_px > p.max_edge_residual_px) {
+    // Levenberg-Marquardt on the conic reprojection cost, eq. (14)-(15).
+    const std::vector<vision_internal::ConicObservation> obs = conic_observations(chosen);
+    const auto ref = vision_internal::refine_pose_conics(K, X0, obs, p.refine_points_per_ellipse,
+                                                         p.refine_max_iter);
+    if (!ref.ok) return fail(VisionStatus::PoseFailed, "conic refinement (eq. 14-15) failed");
+    d.X_CP = ref.X_CP;
+    d.cov = ref.cov;
+    d.edge_rms_px = ref.rms_px;
+    d.refine_iterations = ref.iterations;
+    // Eq. (30): sum over identified centres of |x_i - H X_i|^2.
+    double sum = 0.0;
+    for (int k : chosen) {
+      sum += (project(K, d.X_CP, target.ring(pairs[k].ring_id).centre_P_m) - pairs[k].centre)
+                 .squaredNorm();
+    }
+    d.reproj_err_sum_px2 = sum;
+    d.reproj_err_px = std::sqrt(sum / chosen.size());
+    if (d.reproj_err_px > p.max_reproj_err_px || d.edge_rms_px > p.max_edge_residual_px) {
+      std::ostringstream os;
+      os << "reprojection error " << d.reproj_err_px << " px (gate " << p.max_reproj_err_px
+         << "), conic residual " << d.edge_rms_px << " px (gate " << p.max_edge_residual_px << ")";
+      return fail(VisionStatus::ReprojectionTooLarge, os.str());
+    }
+    d.detected = true;
+    d.status = VisionStatus::Detected;
+    d.source = PoseSource::Rings;
     std::ostringstream os;
-    os << "reprojection error " << d.reproj_err_px << " px (gate " << p.max_reproj_err_px
-       << "), conic residual " << d.edge_rms_px << " px (gate " << p.max_edge_residual_px << ")";
-    return fail(VisionStatus::ReprojectionTooLarge, os.str());
-  }
-  d.detected = true;
-  d.status = VisionStatus::Detected;
-  d.source = PoseSource::Rings;
-  std::ostringstream os;
-  os << chosen.size() << " ring sets identified";
-  d.reason = os.str();
-  return true;
+    os << chosen.size() << " ring sets identified";
+    d.reason = os.str();
+    return true;
   };
   if (const auto X0 = initial_pose(); X0 && finish(*X0)) return true;
   if (!p.layout_identification) return false;
@@ -562,7 +562,8 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
         k = static_cast<int>(pairs.size()) - 1;
       }
       pairs[k].ring_id = id;
-      pairs[k].err = pairs[k].inner >= 0 ? std::abs(pairs[k].ratio - target.ring(id).radius_ratio()) : 0.0;
+      pairs[k].err =
+          pairs[k].inner >= 0 ? std::abs(pairs[k].ratio - target.ring(id).radius_ratio()) : 0.0;
       used_ellipse[pairs[k].outer] = true;
       if (pairs[k].inner >= 0) used_ellipse[pairs[k].inner] = true;
       chosen.push_back(k);
@@ -571,16 +572,16 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
     const auto X0 = initial_pose();
     if (X0 && finish(*X0)) {
       std::ostringstream os;
-      os << "layout: " << d.reason << " (" << m->candidate.size() << " placed, "
-         << m->ratio_sets << " ratios, mean error " << m->mean_ratio_err << "; ratio path: "
-         << d_ratio.reason << ")";
+      os << "layout: " << d.reason << " (" << m->candidate.size() << " placed, " << m->ratio_sets
+         << " ratios, mean error " << m->mean_ratio_err << "; ratio path: " << d_ratio.reason
+         << ")";
       d.reason = os.str();
       d.by_layout = true;
       return true;
     }
-    lwhy = m->candidate.size() > 0 ? "placed " + std::to_string(m->candidate.size()) +
-                                         " sets, no pose: " + d.reason
-                                   : d.reason;
+    lwhy = m->candidate.size() > 0
+               ? "placed " + std::to_string(m->candidate.size()) + " sets, no pose: " + d.reason
+               : d.reason;
   }
   d = d_ratio;
   chosen = chosen_ratio;
@@ -964,8 +965,7 @@ CameraModel zoomed_camera(const CameraModel& cam, const cv::Rect& region, int s)
 
 // Maps a detection made on the zoomed region back to the frame's pixels (the pose does not
 // change with the magnification; pixel residuals shrink by s).
-void unzoom(RingDetection& d, std::vector<EllipseCandidate>& cands, const cv::Rect& region,
-            int s) {
+void unzoom(RingDetection& d, std::vector<EllipseCandidate>& cands, const cv::Rect& region, int s) {
   const Eigen::Vector2d t(s * (0.5 - region.x) - 0.5, s * (0.5 - region.y) - 0.5);
   auto back = [&](const Eigen::Vector2d& u) -> Eigen::Vector2d { return (u - t) / s; };
   Eigen::Matrix3d T = Eigen::Matrix3d::Identity();  // zoomed = T * frame (homogeneous)
@@ -1122,8 +1122,8 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vect
       const CameraModel zcam = zoomed_camera(camera_, region, kZoom);
       RingDetection dz;
       std::vector<EllipseCandidate> cz;
-      const bool ok = search_region(zoomed, cv::Rect(0, 0, zoomed.cols, zoomed.rows), zcam,
-                                    target_, params_, dz, cz);
+      const bool ok = search_region(zoomed, cv::Rect(0, 0, zoomed.cols, zoomed.rows), zcam, target_,
+                                    params_, dz, cz);
       std::ostringstream os;
       os << "zoomed x" << kZoom << " on " << region.width << "x" << region.height << " px at ("
          << region.x << ", " << region.y << ")";

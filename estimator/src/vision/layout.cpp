@@ -25,7 +25,7 @@ struct Hypothesis {
   int ratio_sets{0};
   double mean_err{0.0};
   double max_err{0.0};
-  double bias{0.0};               // the common ratio offset removed
+  double bias{0.0};  // the common ratio offset removed
 };
 
 bool conflict(const Hypothesis& a, const Hypothesis& b) {
@@ -44,8 +44,8 @@ bool conflict(const Hypothesis& a, const Hypothesis& b) {
 }  // namespace
 
 std::optional<LayoutMatch> identify_by_layout(const std::vector<LayoutCandidate>& cands,
-                                              const TargetGeometry& target,
-                                              const VisionParams& p, std::string& why) {
+                                              const TargetGeometry& target, const VisionParams& p,
+                                              std::string& why) {
   const int nr = static_cast<int>(target.rings.size());
   int centre_ring = -1;
   for (int i = 0; i < nr; ++i) {

@@ -57,7 +57,7 @@ struct LayoutMatch {
 // ambiguous. Needs `min_rings` sets placed and `layout_min_ratio_sets` measured ratios among
 // them.
 std::optional<LayoutMatch> identify_by_layout(const std::vector<LayoutCandidate>& cands,
-                                              const TargetGeometry& target,
-                                              const VisionParams& p, std::string& why);
+                                              const TargetGeometry& target, const VisionParams& p,
+                                              std::string& why);
 
 }  // namespace lander
