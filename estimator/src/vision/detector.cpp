@@ -573,8 +573,9 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
     if (X0 && finish(*X0)) {
       std::ostringstream os;
       os << "layout: " << d.reason << " (" << m->candidate.size() << " placed, " << m->ratio_sets
-         << " ratios, mean error " << m->mean_ratio_err << "; ratio path: " << d_ratio.reason
-         << ")";
+         << " ratios, mean error " << m->mean_ratio_err << " after a common bias of "
+         << m->ratio_bias << ", best other identity " << m->runner_up_err
+         << "; ratio path: " << d_ratio.reason << ")";
       d.reason = os.str();
       d.by_layout = true;
       return true;
@@ -886,6 +887,16 @@ void RingTargetDetector::reset() {
 
 namespace {
 
+// The pixel rectangle covering [x0, x1] x [y0, y1] (outward to whole pixels), within `full`.
+cv::Rect covering_rect(double x0, double y0, double x1, double y1, const cv::Rect& full) {
+  using vision_internal::clamp_coord;
+  return cv::Rect(cv::Point(static_cast<int>(std::floor(clamp_coord(x0))),
+                            static_cast<int>(std::floor(clamp_coord(y0)))),
+                  cv::Point(static_cast<int>(std::ceil(clamp_coord(x1))),
+                            static_cast<int>(std::ceil(clamp_coord(y1))))) &
+         full;
+}
+
 // Regions for the zoomed pass: clusters of the failed pass's small ellipses (a ring set and
 // its neighbours lie within a few of their radii of each other), the most populous first,
 // each grown by its own size on every side (the sets not found lie around the ones found).
@@ -935,12 +946,7 @@ std::vector<cv::Rect> zoom_regions(const std::vector<DetectedEllipse>& ellipses,
     if (static_cast<int>(out.size()) >= p.zoom_max_regions) break;
     const double gx = std::max(c.x1 - c.x0, 8.0), gy = std::max(c.y1 - c.y0, 8.0);
     const double g = std::max(gx, gy);
-    const cv::Rect r =
-        cv::Rect(cv::Point(static_cast<int>(std::floor(vision_internal::clamp_coord(c.x0 - g))),
-                           static_cast<int>(std::floor(vision_internal::clamp_coord(c.y0 - g)))),
-                 cv::Point(static_cast<int>(std::ceil(vision_internal::clamp_coord(c.x1 + g))),
-                           static_cast<int>(std::ceil(vision_internal::clamp_coord(c.y1 + g))))) &
-        full;
+    const cv::Rect r = covering_rect(c.x0 - g, c.y0 - g, c.x1 + g, c.y1 + g, full);
     if (r.width < 8 || r.height < 8 || r.width > p.zoom_max_region_px ||
         r.height > p.zoom_max_region_px) {
       continue;
@@ -1062,12 +1068,7 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vect
       }
       const double mx = params_.roi_margin * (x1 - x0), my = params_.roi_margin * (y1 - y0);
       const cv::Rect2d r(x0 - mx, y0 - my, x1 - x0 + 2 * mx, y1 - y0 + 2 * my);
-      const cv::Rect roi =
-          cv::Rect(cv::Point(static_cast<int>(std::floor(vision_internal::clamp_coord(r.x))),
-                             static_cast<int>(std::floor(vision_internal::clamp_coord(r.y)))),
-                   cv::Point(static_cast<int>(std::ceil(vision_internal::clamp_coord(r.x + r.width))),
-                             static_cast<int>(std::ceil(vision_internal::clamp_coord(r.y + r.height))))) &
-          full;
+      const cv::Rect roi = covering_rect(r.x, r.y, r.x + r.width, r.y + r.height, full);
       if (roi.width >= 16 && roi.height >= 16 && roi.area() < 0.7 * full.area()) {
         grey_region(image, roi, grey);
         done = search_region(grey, roi, camera_, target_, params_, d, cands);

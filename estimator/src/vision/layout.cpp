@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <set>
 #include <sstream>
 
 #include <Eigen/Dense>
@@ -19,7 +20,6 @@ Cplx to_c(const Eigen::Vector2d& v) { return {v.x(), v.y()}; }
 // similarity (scale k, rotation) from the model plane to the rectified plane, and the sets
 // matched under it.
 struct Hypothesis {
-  int frame{-1};                  // the candidate whose circle rectified the plane
   std::vector<int> cand_of_ring;  // per target.rings index: candidate, -1 none
   int matched{0};                 // rings matched, the central one included
   int ratio_sets{0};
@@ -59,6 +59,7 @@ std::optional<LayoutMatch> identify_by_layout(const std::vector<LayoutCandidate>
   for (const auto& r : target.rings) hex_radius = std::max(hex_radius, r.centre_P_m.norm());
   const int n = static_cast<int>(cands.size());
   std::vector<Hypothesis> hyps;
+  std::set<std::vector<int>> seen;  // assignments already in hyps (many seeds give the same)
   int frames_tried = 0;
   for (int c0 = 0; c0 < n; ++c0) {
     const LayoutCandidate& f = cands[c0];
@@ -125,7 +126,6 @@ std::optional<LayoutMatch> identify_by_layout(const std::vector<LayoutCandidate>
                 return a.d < b.d || (a.d == b.d && (a.i < b.i || (a.i == b.i && a.j < b.j)));
               });
               h = Hypothesis{};
-              h.frame = c0;
               h.cand_of_ring.assign(nr, -1);
               h.cand_of_ring[i0] = c0;
               std::vector<bool> used(n, false);
@@ -177,10 +177,7 @@ std::optional<LayoutMatch> identify_by_layout(const std::vector<LayoutCandidate>
               h.mean_err = sum / static_cast<double>(e.size());
               h.bias = bias;
             }
-            const bool dup = std::any_of(hyps.begin(), hyps.end(), [&](const Hypothesis& o) {
-              return o.cand_of_ring == h.cand_of_ring;
-            });
-            if (!dup) hyps.push_back(std::move(h));
+            if (seen.insert(h.cand_of_ring).second) hyps.push_back(std::move(h));
           }
         }
       }
@@ -191,12 +188,10 @@ std::optional<LayoutMatch> identify_by_layout(const std::vector<LayoutCandidate>
            h.mean_err <= p.layout_ratio_tol && h.max_err <= 2.0 * p.layout_ratio_tol;
   };
   const Hypothesis* best = nullptr;
-  int n_valid = 0;
   int most_matched = 0;
   for (const auto& h : hyps) {
     most_matched = std::max(most_matched, h.matched);
     if (!valid(h)) continue;
-    ++n_valid;
     if (!best || h.matched > best->matched ||
         (h.matched == best->matched && h.mean_err < best->mean_err)) {
       best = &h;

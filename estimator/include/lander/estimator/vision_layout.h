@@ -49,7 +49,7 @@ struct LayoutMatch {
   std::vector<int> ring_id;    ///< its identity, index-aligned with `candidate`
   int ratio_sets{0};           ///< sets whose measured ratio entered the decision
   double mean_ratio_err{0.0};  ///< their mean |ratio - model ratio|
-  double runner_up_err{-1.0};  ///< the best conflicting hypothesis' mean error (-1: none)
+  double runner_up_err{-1.0};  ///< the best other identity's mean error (-1: none)
   double ratio_bias{0.0};      ///< the common offset of the measured ratios, removed
 };
 
