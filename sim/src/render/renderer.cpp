@@ -1,10 +1,55 @@
 #include "lander/sim/render/renderer.h"
 
+#include <algorithm>
 #include <chrono>
 
+#include <Eigen/Core>
 #include <opencv2/imgproc.hpp>
 
 namespace lander::sim {
+
+namespace {
+
+// Where a directional light's shadow map lies. MuJoCo draws it over +-shadowClip (a model
+// constant, stat.extent * map.shadowclip: 10 m here) around the line through the light's
+// position along its direction, and the position is fixed in the model: with it, shadows
+// stopped about 10 m from the world origin, and a cart that had driven away carried none.
+// Sunlight is the same everywhere, so each frame the line is moved through the point where
+// the camera's optical axis meets the ground, and the half-width set to hold the camera's
+// footprint there (its half-diagonal is ~1.15 x the distance for this camera: 1.3 x, at
+// least 2 m): the shadow map's texels then stay about as fine as the image's pixels on the
+// ground (2048 texels over 2.6 x the distance; the camera's pixel covers 1/640 of it).
+constexpr double kGroundZ = 0.0;           ///< the ground plane (world.xml)
+constexpr double kMaxLookDistanceM = 60.0; ///< a near-horizontal axis: this far along it
+constexpr double kShadowClipPerM = 1.3;    ///< half-width of the map per metre of distance
+constexpr double kMinShadowClipM = 2.0;
+constexpr double kLightBackOffM = 30.0;    ///< light placed this far above the look point
+// Geom group drawn only in free (chase) views: the rotor discs (models/hexarotor.xml).
+constexpr int kChaseOnlyGroup = 3;
+
+void aim_shadow_maps(mjvScene& scn, mjrContext& con) {
+  const mjvGLCamera& c = scn.camera[0];
+  const Eigen::Vector3d pos(c.pos[0], c.pos[1], c.pos[2]);
+  Eigen::Vector3d fwd(c.forward[0], c.forward[1], c.forward[2]);
+  if (fwd.norm() < 1e-9) return;
+  fwd.normalize();
+  const double height = std::max(0.0, pos.z() - kGroundZ);
+  double dist = kMaxLookDistanceM;
+  if (fwd.z() < -1e-6) dist = std::min(kMaxLookDistanceM, height / -fwd.z());
+  const Eigen::Vector3d look = pos + dist * fwd;
+  con.shadowClip = static_cast<float>(std::max(kMinShadowClipM, kShadowClipPerM * dist));
+  for (int i = 0; i < scn.nlight; ++i) {
+    mjvLight& L = scn.lights[i];
+    if (!L.castshadow || !L.directional) continue;
+    Eigen::Vector3d dir(L.dir[0], L.dir[1], L.dir[2]);
+    if (dir.norm() < 1e-9) continue;
+    dir.normalize();
+    const Eigen::Vector3d lp = look - (dist + kLightBackOffM) * dir;
+    for (int k = 0; k < 3; ++k) L.pos[k] = static_cast<float>(lp[k]);
+  }
+}
+
+}  // namespace
 
 Renderer::Renderer(const mjModel* m, const RenderParams& params) : params_(params) {
   params.validate();
@@ -52,6 +97,7 @@ void Renderer::make_context(const mjModel* m) {
 
 void Renderer::render_camera(const mjModel* m, mjData* d, int cam_id, int width, int height,
                              cv::Mat& bgr) {
+  option_.geomgroup[kChaseOnlyGroup] = 0;
   mjvCamera cam;
   mjv_defaultCamera(&cam);
   cam.type = mjCAMERA_FIXED;
@@ -61,6 +107,7 @@ void Renderer::render_camera(const mjModel* m, mjData* d, int cam_id, int width,
 
 void Renderer::render_free(const mjModel* m, mjData* d, const mjvCamera& cam, int width,
                            int height, cv::Mat& bgr) {
+  option_.geomgroup[kChaseOnlyGroup] = 1;
   mjvCamera c = cam;
   render(m, d, c, width, height, bgr);
 }
@@ -79,6 +126,7 @@ void Renderer::render(const mjModel* m, mjData* d, mjvCamera& cam, int width, in
   const mjrRect viewport = {0, 0, width, height};
   const auto t0 = Clock::now();
   mjv_updateScene(m, d, &option_, nullptr, &cam, mjCAT_ALL, &scene_);
+  if (scene_.flags[mjRND_SHADOW]) aim_shadow_maps(scene_, context_);
   const auto t1 = Clock::now();
   mjr_render(viewport, &scene_, &context_);
   mjr_finish();  // the read-back waits for the drawing anyway; this only splits the timing
