@@ -415,6 +415,63 @@ CodePlacement place_code_cells(const std::vector<ObservedCell>& cells, const Tar
   return best;
 }
 
+namespace {
+
+// A cell's mean grey at lattice label (a, b).
+struct CellRead {
+  int a, b;
+  double mean;
+};
+
+// Cells read against their local white (detect_code_pattern, step 4). The ink renders near
+// 0 (a dark cell reads below 0.1 of its white, blurred ones too), a white cell under a
+// shadow the closing followed near 1, and one under a thin shadow the closing filled in (an
+// arm's, ~1 cell wide) at the shadow's light, 10-50 %: dark below 0.2 of the local white,
+// white above 0.45, unknown between (on 30 frames of a shadowed landing 0.2/0.45 placed the
+// code in 18, 0.3/0.7 in 12; 0.12/0.3 and 0.15/0.35 also in 18).
+constexpr double kLocalDarkBelow = 0.2;
+constexpr double kLocalWhiteAbove = 0.45;
+std::vector<ObservedCell> read_cells_local_white(const std::vector<CellRead>& reads, int amin,
+                                                 int amax, int bmin, int bmax) {
+  const int w = amax - amin + 3, h = bmax - bmin + 3;
+  auto at = [&](int a, int b) { return (b - bmin + 1) * w + (a - amin + 1); };
+  const double kNone = -1.0;
+  std::vector<double> mean(static_cast<std::size_t>(w) * h, kNone);
+  for (const auto& r : reads) mean[at(r.a, r.b)] = r.mean;
+  auto filter = [&](const std::vector<double>& in, bool take_max) {
+    std::vector<double> out(in.size(), kNone);
+    for (int b = bmin - 1; b <= bmax + 1; ++b) {
+      for (int a = amin - 1; a <= amax + 1; ++a) {
+        if (in[at(a, b)] == kNone) continue;
+        double v = in[at(a, b)];
+        for (int db = -1; db <= 1; ++db) {
+          for (int da = -1; da <= 1; ++da) {
+            const int aa = a + da, bb = b + db;
+            if (aa < amin - 1 || aa > amax + 1 || bb < bmin - 1 || bb > bmax + 1) continue;
+            const double q = in[at(aa, bb)];
+            if (q == kNone) continue;
+            v = take_max ? std::max(v, q) : std::min(v, q);
+          }
+        }
+        out[at(a, b)] = v;
+      }
+    }
+    return out;
+  };
+  const std::vector<double> white = filter(filter(mean, true), false);
+  std::vector<ObservedCell> cells;
+  for (const auto& r : reads) {
+    const double wl = white[at(r.a, r.b)];
+    if (!(wl > 0)) continue;
+    const double v = r.mean / wl;
+    if (v >= kLocalDarkBelow && v <= kLocalWhiteAbove) continue;
+    cells.push_back({r.a, r.b, static_cast<std::uint8_t>(v < kLocalDarkBelow ? 1 : 0)});
+  }
+  return cells;
+}
+
+}  // namespace
+
 CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
                                   const TargetGeometry& g, const VisionParams& p) {
   CodeDetection d;
@@ -682,11 +739,7 @@ CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
   }
   const int span_cap = 2 * g.code.cells + 16;
   if (amax - amin > span_cap || bmax - bmin > span_cap) return fail("lattice too large");
-  struct Read {
-    int a, b;
-    double mean;
-  };
-  std::vector<Read> reads;
+  std::vector<CellRead> reads;
   std::vector<double> cell_sides;
   for (int b = bmin - 1; b <= bmax; ++b) {
     for (int a = amin - 1; a <= amax; ++a) {
@@ -737,6 +790,26 @@ CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
   // ---- 4. place the read cells in the map ----
   const std::vector<std::uint8_t> map = generate_code_map(g.code);
   d.placement = place_code_cells(cells, g, map, p);
+  if (!d.placement.found && p.code_local_white) {
+    // Under a shadow (the vehicle's own, in the last metre) one level for every cell reads
+    // the shadowed white cells as dark. Read again, each cell against its local white: the
+    // closing of the cell means over the lattice (the largest of each 3 x 3 neighbourhood,
+    // then the smallest of those over 3 x 3) follows a shadow's edge wherever each 3 x 3
+    // block holds a white cell, and fills the dark cells in. Clean frames never get here
+    // unless the one level failed anyway.
+    std::vector<ObservedCell> local = read_cells_local_white(reads, amin, amax, bmin, bmax);
+    CodePlacement again = place_code_cells(local, g, map, p);
+    if (again.found) {
+      again.reason += " (cells read against their local white: " +
+                      std::to_string(local.size()) + " read; one level: " +
+                      d.placement.reason + ")";
+      d.placement = again;
+      d.cells_read = static_cast<int>(local.size());
+      d.local_white = true;
+    } else {
+      d.placement.reason += "; against their local white: " + again.reason;
+    }
+  }
   if (!d.placement.found) return fail(d.placement.reason);
   // ---- 5. sub-pixel corners of the map and PnP ----
   const ExtendedMap em = extended_map(g, map);

@@ -1228,6 +1228,7 @@ std::string to_json(const RingDetection& d) {
                {"detected", d.code.detected},
                {"reason", d.code.reason},
                {"cells_read", d.code.cells_read},
+               {"local_white", d.code.local_white},
                {"corners", d.code.corners_px.size()},
                {"rotation", d.code.placement.rotation},
                {"reproj_rms_px", d.code.reproj_rms_px}};

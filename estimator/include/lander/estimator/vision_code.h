@@ -68,6 +68,8 @@ struct CodeDetection {
   Eigen::Matrix<double, 6, 6> cov{Eigen::Matrix<double, 6, 6>::Identity()};
   CodePlacement placement;
   int cells_read{0};                ///< lattice cells read (dark or light)
+  bool local_white{false};          ///< placed with the cells read against their local white
+                                    ///< (a shadow across the code; code_local_white)
   double cell_px{0.0};              ///< median cell side in the image (px)
   std::vector<Eigen::Vector2d> corners_px;   ///< matched sub-pixel corners (undistorted px)
   std::vector<Eigen::Vector2d> corners_P_m;  ///< the same corners in P (m), z = 0

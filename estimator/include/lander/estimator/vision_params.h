@@ -134,6 +134,8 @@ struct VisionParams {
                                      ///< (a disagreement costs 4, an agreement gains 1)
   int code_min_corners{8};           ///< matched sub-pixel corners needed for the PnP
   double code_max_reproj_px{1.0};    ///< corner reprojection RMS gate after refinement (px)
+  bool code_local_white{true};       ///< when one level for all cells gives no placement, read
+                                     ///< each cell against its local white (shadows)
 
   // ---- fewer-ring poses and combination ----
   bool centre_ring_pose{true};       ///< pose from the central set (both circles) when fewer
@@ -211,6 +213,7 @@ void visit_fields(V& v, VisionParams& p) {
   v("code_min_score_margin", p.code_min_score_margin);
   v("code_min_corners", p.code_min_corners);
   v("code_max_reproj_px", p.code_max_reproj_px);
+  v("code_local_white", p.code_local_white);
   v("centre_ring_pose", p.centre_ring_pose);
   v("tracked_yaw_sigma_rad", p.tracked_yaw_sigma_rad);
   v("tracked_max_jump_m", p.tracked_max_jump_m);
