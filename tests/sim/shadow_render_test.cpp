@@ -28,7 +28,7 @@ constexpr double kShadowedMaxFraction = 0.85;
 // (hub, battery, six arms and four legs, symmetric about the body's z axis) must have their
 // centroid within this of it. The hub's 3 cm height and the battery above it, seen along a
 // ray 10 deg off the vertical, shift it by ~0.5 cm (~2 px at 1.5 m); the shadow map's texel
-// is ~2 mm there.
+// is ~3 mm there (3 x 2.3 m over 2048).
 constexpr double kShadowCentreTolPx = 8.0;
 // The window searched for the shadow: a bit more than the hub's shadow (0.11 m at 1.5 m:
 // 47 px).

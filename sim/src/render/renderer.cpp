@@ -16,13 +16,17 @@ namespace {
 // stopped about 10 m from the world origin, and a cart that had driven away carried none.
 // Sunlight is the same everywhere, so each frame the line is moved through the point where
 // the camera's optical axis meets the ground, and the half-width set to hold the camera's
-// footprint there (its half-diagonal is ~1.15 x the distance for this camera: 1.3 x, at
-// least 2 m): the shadow map's texels then stay about as fine as the image's pixels on the
-// ground (2048 texels over 2.6 x the distance; the camera's pixel covers 1/640 of it).
+// footprint there (its half-diagonal is ~1.15 x the distance straight down; 1.5 x leaves
+// room for tilted views). Light keeps a point's position across its rays, so a caster
+// outside that box throws its shadow outside it too, i.e. outside the view. The shadow map's
+// texels (2048 over 3 x the distance) then stay about as fine as the image's pixels on the
+// ground (1/640 of the distance): with a fixed 2 m minimum, at 0.3 m the texels were 5
+// pixels wide and the shadows' edges staircases of right angles, which the code map's
+// corner search took for cells.
 constexpr double kGroundZ = 0.0;           ///< the ground plane (world.xml)
 constexpr double kMaxLookDistanceM = 60.0; ///< a near-horizontal axis: this far along it
-constexpr double kShadowClipPerM = 1.3;    ///< half-width of the map per metre of distance
-constexpr double kMinShadowClipM = 2.0;
+constexpr double kShadowClipPerM = 1.5;    ///< half-width of the map per metre of distance
+constexpr double kMinShadowClipM = 0.2;
 constexpr double kLightBackOffM = 30.0;    ///< light placed this far above the look point
 // Geom group drawn only in free (chase) views: the rotor discs (models/hexarotor.xml).
 constexpr int kChaseOnlyGroup = 3;
