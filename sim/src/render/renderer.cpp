@@ -31,15 +31,23 @@ constexpr double kLightBackOffM = 30.0;    ///< light placed this far above the 
 // Geom group drawn only in free (chase) views: the rotor discs (models/hexarotor.xml).
 constexpr int kChaseOnlyGroup = 3;
 
-void aim_shadow_maps(mjvScene& scn, mjrContext& con) {
+void aim_shadow_maps(const mjModel* m, const mjData* d, int exclude_body, mjvScene& scn,
+                     mjrContext& con) {
   const mjvGLCamera& c = scn.camera[0];
   const Eigen::Vector3d pos(c.pos[0], c.pos[1], c.pos[2]);
   Eigen::Vector3d fwd(c.forward[0], c.forward[1], c.forward[2]);
   if (fwd.norm() < 1e-9) return;
   fwd.normalize();
-  const double height = std::max(0.0, pos.z() - kGroundZ);
-  double dist = kMaxLookDistanceM;
-  if (fwd.z() < -1e-6) dist = std::min(kMaxLookDistanceM, height / -fwd.z());
+  // The first surface along the axis (the platform, 0.8 m above the ground, fills the view
+  // in the last metre), else the ground plane.
+  const mjtNum p0[3] = {pos.x(), pos.y(), pos.z()}, v0[3] = {fwd.x(), fwd.y(), fwd.z()};
+  int geom = -1;
+  double dist = mj_ray(m, d, p0, v0, nullptr, 1, exclude_body, &geom);
+  if (!(dist > 0) || dist > kMaxLookDistanceM) {
+    const double height = std::max(0.0, pos.z() - kGroundZ);
+    dist = kMaxLookDistanceM;
+    if (fwd.z() < -1e-6) dist = std::min(kMaxLookDistanceM, height / -fwd.z());
+  }
   const Eigen::Vector3d look = pos + dist * fwd;
   con.shadowClip = static_cast<float>(std::max(kMinShadowClipM, kShadowClipPerM * dist));
   for (int i = 0; i < scn.nlight; ++i) {
@@ -106,18 +114,18 @@ void Renderer::render_camera(const mjModel* m, mjData* d, int cam_id, int width,
   mjv_defaultCamera(&cam);
   cam.type = mjCAMERA_FIXED;
   cam.fixedcamid = cam_id;
-  render(m, d, cam, width, height, bgr);
+  render(m, d, cam, width, height, bgr, m->cam_bodyid[cam_id]);
 }
 
 void Renderer::render_free(const mjModel* m, mjData* d, const mjvCamera& cam, int width,
                            int height, cv::Mat& bgr) {
   option_.geomgroup[kChaseOnlyGroup] = 1;
   mjvCamera c = cam;
-  render(m, d, c, width, height, bgr);
+  render(m, d, c, width, height, bgr, -1);
 }
 
 void Renderer::render(const mjModel* m, mjData* d, mjvCamera& cam, int width, int height,
-                      cv::Mat& bgr) {
+                      cv::Mat& bgr, int exclude_body) {
   if (width > context_.offWidth || height > context_.offHeight) {
     throw GlError("render size " + std::to_string(width) + "x" + std::to_string(height) +
                   " exceeds the offscreen buffer " + std::to_string(context_.offWidth) + "x" +
@@ -130,7 +138,7 @@ void Renderer::render(const mjModel* m, mjData* d, mjvCamera& cam, int width, in
   const mjrRect viewport = {0, 0, width, height};
   const auto t0 = Clock::now();
   mjv_updateScene(m, d, &option_, nullptr, &cam, mjCAT_ALL, &scene_);
-  if (scene_.flags[mjRND_SHADOW]) aim_shadow_maps(scene_, context_);
+  if (scene_.flags[mjRND_SHADOW]) aim_shadow_maps(m, d, exclude_body, scene_, context_);
   const auto t1 = Clock::now();
   mjr_render(viewport, &scene_, &context_);
   mjr_finish();  // the read-back waits for the drawing anyway; this only splits the timing

@@ -72,7 +72,10 @@ class Renderer {
                           std::vector<unsigned char>& rgb);
 
  private:
-  void render(const mjModel* m, mjData* d, mjvCamera& cam, int width, int height, cv::Mat& bgr);
+  // exclude_body: the body carrying the camera (its own geoms are not the surface it looks
+  // at, for the shadow map's extent), -1 for a free camera.
+  void render(const mjModel* m, mjData* d, mjvCamera& cam, int width, int height, cv::Mat& bgr,
+              int exclude_body);
   // Creates MuJoCo's GL context (uploads every texture) with the configured MSAA.
   void make_context(const mjModel* m);
 
