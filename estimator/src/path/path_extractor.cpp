@@ -141,7 +141,7 @@ PathObservation PathExtractor::extract(const cv::Mat& bgr, Debug* debug) const {
   const cv::Rect box = cv::boundingRect(body);
   if (box.area() > 0) {
     cv::Mat framed, thin;
-    cv::copyMakeBorder(body(box), framed, 1, 1, 1, 1, cv::BORDER_CONSTANT, cv::Scalar(0));
+    cv::copyMakeBorder(body(box), framed, 1, 1, 1, 1, cv::BORDER_CONSTANT | cv::BORDER_ISOLATED, cv::Scalar(0));
     cv::ximgproc::thinning(framed, thin, cv::ximgproc::THINNING_ZHANGSUEN);
     thin(cv::Rect(1, 1, box.width, box.height)).copyTo(centre(box));
   }

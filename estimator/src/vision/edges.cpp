@@ -467,7 +467,13 @@ std::vector<EllipseCandidate> find_ellipses(const cv::Mat& grey, const cv::Rect&
   cv::Mat blurred;
   if (p.gaussian_sigma_px > 0) {
     blurred = blurred_buf(cv::Rect(0, 0, roi.width, roi.height));
-    cv::GaussianBlur(sub, blurred, cv::Size(0, 0), p.gaussian_sigma_px);
+    // BORDER_ISOLATED: a region's blur must not read the pixels around it. `sub` is a view of
+    // the frame's grey buffer, converted in the region only when tracking; outside it the
+    // buffer holds whatever this thread converted last, so reading there made a detection
+    // depend on the thread's history (the overlapped schedule's worker differed from the
+    // serial loop's thread: tests/estimator/vision_determinism_test.cpp).
+    cv::GaussianBlur(sub, blurred, cv::Size(0, 0), p.gaussian_sigma_px, 0,
+                     cv::BORDER_REFLECT_101 | cv::BORDER_ISOLATED);
   } else {
     blurred = sub;
   }
@@ -483,13 +489,19 @@ std::vector<EllipseCandidate> find_ellipses(const cv::Mat& grey, const cv::Rect&
   }
   const cv::Mat kernel =
       cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(p.close_kernel_px, p.close_kernel_px));
+  // Isolated too: `bin` is the top-left corner of a buffer sized for the largest region this
+  // thread has seen, and the closing would read the earlier region's result beside it.
+  constexpr int kIsolatedBorder = cv::BORDER_CONSTANT | cv::BORDER_ISOLATED;
+  const cv::Scalar border = cv::morphologyDefaultBorderValue();
   if (p.canny_edges) {
     cv::Mat edges;
     cv::Canny(bin, edges, 50, 150);
-    if (p.close_kernel_px > 1) cv::morphologyEx(edges, edges, cv::MORPH_CLOSE, kernel);
+    if (p.close_kernel_px > 1) {
+      cv::morphologyEx(edges, edges, cv::MORPH_CLOSE, kernel, cv::Point(-1, -1), 1, kIsolatedBorder, border);
+    }
     bin = edges;
   } else if (p.close_kernel_px > 1) {
-    cv::morphologyEx(bin, bin, cv::MORPH_CLOSE, kernel);
+    cv::morphologyEx(bin, bin, cv::MORPH_CLOSE, kernel, cv::Point(-1, -1), 1, kIsolatedBorder, border);
   }
   std::vector<std::vector<cv::Point>> contours;
   cv::findContours(bin, contours, cv::RETR_LIST, cv::CHAIN_APPROX_NONE);
