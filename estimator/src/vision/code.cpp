@@ -339,13 +339,24 @@ CodePlacement place_code_cells(const std::vector<ObservedCell>& cells, const Tar
     // Offsets putting at least one read cell on the map.
     for (int oc = -amax; oc <= n - 1 - amin; ++oc) {
       for (int orow = -bmax; orow <= n - 1 - bmin; ++orow) {
+        // A placement changes the best or the runner-up only if it scores above the
+        // runner-up; each cell left can add at most one, so the count stops as soon as that
+        // is out of reach (the result is the full count's, found sooner).
         int compared = 0, mis = 0;
-        for (std::size_t i = 0; i < cells.size(); ++i) {
+        const int n_cells = static_cast<int>(cells.size());
+        bool reachable = true;
+        for (int i = 0; i < n_cells; ++i) {
           const int v = em.at(rc[i].x() + oc, rc[i].y() + orow);
-          if (v == 2) continue;
-          ++compared;
-          mis += v != cells[i].dark;
+          if (v != 2) {
+            ++compared;
+            mis += v != cells[i].dark;
+          }
+          if (compared - 4 * mis + (n_cells - 1 - i) <= second_score) {
+            reachable = false;
+            break;
+          }
         }
+        if (!reachable) continue;
         const int score = compared - 4 * mis;
         if (score > best_score) {
           if (best.compared > 0) {
@@ -559,14 +570,32 @@ CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
     return Eigen::Vector2d(Bi * (q.head<2>() / q.z()));
   };
   // Cell size (px): median distance to the nearest other vertex.
+  // Scanned in x order outwards from each vertex, stopping where the x gap alone reaches the
+  // nearest distance so far: the same minimum as comparing every pair, without the n^2.
   std::vector<double> nn;
-  for (std::size_t i = 0; i < verts.size(); ++i) {
-    double best = 1e18;
-    for (std::size_t j = 0; j < verts.size(); ++j) {
-      const double dd = (verts[i] - verts[j]).norm();
-      if (j != i && dd > 0.5 * minc) best = std::min(best, dd);
+  {
+    std::vector<std::size_t> by_x(verts.size());
+    for (std::size_t i = 0; i < by_x.size(); ++i) by_x[i] = i;
+    std::sort(by_x.begin(), by_x.end(),
+              [&](std::size_t a, std::size_t b) { return verts[a].x() < verts[b].x(); });
+    const std::ptrdiff_t nv = static_cast<std::ptrdiff_t>(by_x.size());
+    std::vector<double> nearest(verts.size(), 1e18);
+    for (std::ptrdiff_t k = 0; k < nv; ++k) {
+      const std::size_t i = by_x[k];
+      double best = 1e18;
+      for (const std::ptrdiff_t step : {-1, 1}) {
+        for (std::ptrdiff_t m = k + step; m >= 0 && m < nv; m += step) {
+          const std::size_t j = by_x[m];
+          if (std::abs(verts[j].x() - verts[i].x()) >= best) break;
+          const double dd = (verts[i] - verts[j]).norm();
+          if (dd > 0.5 * minc) best = std::min(best, dd);
+        }
+      }
+      nearest[i] = best;
     }
-    if (best < 1e17) nn.push_back(best);
+    for (const double best : nearest) {
+      if (best < 1e17) nn.push_back(best);
+    }
   }
   if (nn.empty()) return fail("isolated corners");
   std::nth_element(nn.begin(), nn.begin() + nn.size() / 2, nn.end());
