@@ -11,9 +11,13 @@
 // only and never sees the plant's parameters or the truth.
 #include <algorithm>
 #include <chrono>
+#include <condition_variable>
 #include <ctime>
-#include <future>
+#include <exception>
 #include <iostream>
+#include <mutex>
+#include <thread>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -113,10 +117,23 @@ struct VisionJob {
 // (outlier hooks, the recorder, the queue) runs on the main thread at the join, in frame order.
 class VisionStage {
  public:
-  VisionStage(flight::FlightStack& flight, bool overlap) : flight_(flight), overlap_(overlap) {}
-  ~VisionStage() {
-    if (future_.valid()) future_.wait();  // never leave the worker running past the loop
+  VisionStage(flight::FlightStack& flight, bool overlap) : flight_(flight), overlap_(overlap) {
+    // One worker for the whole run (not a thread per frame): the detector's per-thread scratch
+    // buffers stay allocated from frame to frame, as on the loop's thread in the serial
+    // schedule. Results never depend on which thread ran them (vision_determinism_test.cpp).
+    if (overlap_) worker_ = std::thread([this] { work(); });
   }
+  ~VisionStage() {
+    if (!worker_.joinable()) return;
+    {
+      std::lock_guard<std::mutex> lock(m_);
+      stop_ = true;
+    }
+    cv_.notify_all();
+    worker_.join();  // finishes a job in flight first: never leave the worker past the loop
+  }
+  VisionStage(const VisionStage&) = delete;
+  VisionStage& operator=(const VisionStage&) = delete;
   bool overlapped() const { return overlap_; }
 
   // Starts (or, serially, does) frame `job`'s detection, whose result is due at `deliver_t_s`
@@ -125,10 +142,11 @@ class VisionStage {
   void submit(VisionJob job, double deliver_t_s) {
     deliver_t_ = deliver_t_s;
     if (overlap_) {
-      future_ = std::async(std::launch::async, [this, j = std::move(job)]() mutable {
-        run(j);
-        return std::move(j);
-      });
+      {
+        std::lock_guard<std::mutex> lock(m_);
+        todo_ = std::move(job);
+      }
+      cv_.notify_all();
     } else {
       run(job);
       done_ = std::move(job);
@@ -137,13 +155,19 @@ class VisionStage {
   }
   bool pending() const { return pending_; }
   double pending_deliver_t() const { return deliver_t_; }
-  // The submitted job, finished (waits for the worker). *wait_ms gets the time waited.
+  // The submitted job, finished (waits for the worker; rethrows what the job threw).
+  // *wait_ms gets the time waited.
   VisionJob take(double* wait_ms) {
     pending_ = false;
-    if (!overlap_) return std::move(*done_);
-    const auto t0 = Clock::now();
-    VisionJob j = future_.get();
-    *wait_ms += ms_since(t0);
+    if (overlap_) {
+      const auto t0 = Clock::now();
+      std::unique_lock<std::mutex> lock(m_);
+      cv_.wait(lock, [this] { return done_.has_value() || error_; });
+      *wait_ms += ms_since(t0);
+      if (error_) std::rethrow_exception(std::exchange(error_, nullptr));
+    }
+    VisionJob j = std::move(*done_);
+    done_.reset();
     return j;
   }
 
@@ -161,13 +185,41 @@ class VisionStage {
     }
     j.proc_ms = ms_since(t0);
   }
+  void work() {
+    std::unique_lock<std::mutex> lock(m_);
+    for (;;) {
+      cv_.wait(lock, [this] { return stop_ || todo_.has_value(); });
+      if (!todo_) return;  // stopped with nothing to do
+      VisionJob j = std::move(*todo_);
+      todo_.reset();
+      lock.unlock();
+      std::exception_ptr err;
+      try {
+        run(j);
+      } catch (...) {
+        err = std::current_exception();
+      }
+      lock.lock();
+      if (err) {
+        error_ = err;
+      } else {
+        done_ = std::move(j);
+      }
+      cv_.notify_all();
+    }
+  }
 
   flight::FlightStack& flight_;
   const bool overlap_;
   bool pending_ = false;
   double deliver_t_ = 0;
-  std::future<VisionJob> future_;
-  std::optional<VisionJob> done_;
+  std::thread worker_;
+  std::mutex m_;
+  std::condition_variable cv_;
+  bool stop_ = false;                ///< guarded by m_
+  std::optional<VisionJob> todo_;    ///< submitted, not started (guarded by m_ when overlapped)
+  std::optional<VisionJob> done_;    ///< finished, not taken (guarded by m_ when overlapped)
+  std::exception_ptr error_;         ///< what the worker's job threw (guarded by m_)
 };
 
 bool overlap_vision(const Scenario& s, const RunOptions& o) {
