@@ -54,6 +54,12 @@ constexpr double kAmbiguousFrac = 0.2;
 // Corner refinement: the sub-pixel corner must stay within this fraction of a cell of its
 // prediction.
 constexpr double kCornerMoveFrac = 0.25;
+// Corner outlier rejection after the first pose (detect_code_pattern, step 5): at most this
+// many drop-and-solve passes ...
+constexpr int kCodeOutlierPasses = 2;
+// ... and the corners kept must be at least this fraction of those refined: a pose is fitted
+// on the majority of the placement's corners, never on a few that happen to agree.
+constexpr double kMinCodeInlierFraction = 0.6;
 // Corners closer than this to the central ring's inner circle are dropped (fraction of a
 // cell): the annulus edge would enter the cornerSubPix window.
 constexpr double kRingClearanceCells = 0.8;
@@ -892,25 +898,44 @@ CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
     return true;
   };
   if (!solve()) return fail("PnP failed");
-  // One outlier pass: drop corners beyond three times the RMS (at least the gate), re-solve.
-  for (int pass = 0; pass < 2; ++pass) {
+  // Outliers: a corner that cornerSubPix pulled onto another edge (a shadow's edge across the
+  // cell corner: the vehicle's own shadow in the last metre) sits pixels off while the rest
+  // fit within a tenth of a pixel, and a fifth of such corners lift the RMS above the gate.
+  // So the scale is robust (1.4826 x the median residual, not the RMS they inflate): corners
+  // beyond max(gate, 3 x scale) are dropped and the pose solved again, up to
+  // kCodeOutlierPasses times, keeping at least kMinCodeInlierFraction of the corners and
+  // code_min_corners. On clean frames (median residual below 0.22 px) the threshold is the
+  // gate itself, as with the former single pass at 3 x RMS.
+  const std::size_t n_corners = obj.size();
+  for (int pass = 0;; ++pass) {
     std::vector<cv::Point2d> pr;
     cv::projectPoints(obj, rvec, tvec, Kcv, cv::noArray(), pr);
+    std::vector<double> res(pr.size());
     double ss = 0.0;
-    for (std::size_t i = 0; i < pr.size(); ++i) ss += std::pow(cv::norm(pr[i] - ip[i]), 2);
+    for (std::size_t i = 0; i < pr.size(); ++i) {
+      res[i] = cv::norm(pr[i] - ip[i]);
+      ss += res[i] * res[i];
+    }
     d.reproj_rms_px = std::sqrt(ss / pr.size());
-    if (pass == 1) break;
-    const double gate = std::max(p.code_max_reproj_px, 3.0 * d.reproj_rms_px);
+    if (pass == kCodeOutlierPasses) break;
+    std::vector<double> sorted = res;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    const double scale = 1.4826 * sorted[sorted.size() / 2];
+    const double gate = std::max(p.code_max_reproj_px, 3.0 * scale);
     std::vector<cv::Point3d> o2;
     std::vector<cv::Point2d> i2;
     for (std::size_t i = 0; i < pr.size(); ++i) {
-      if (cv::norm(pr[i] - ip[i]) <= gate) {
+      if (res[i] <= gate) {
         o2.push_back(obj[i]);
         i2.push_back(ip[i]);
       }
     }
     if (o2.size() == obj.size()) break;
-    if (static_cast<int>(o2.size()) < p.code_min_corners) return fail("too many corner outliers");
+    if (static_cast<int>(o2.size()) < p.code_min_corners ||
+        static_cast<double>(o2.size()) < kMinCodeInlierFraction * static_cast<double>(n_corners)) {
+      return fail("too many corner outliers (" + std::to_string(n_corners - o2.size()) + " of " +
+                  std::to_string(n_corners) + ")");
+    }
     obj = o2;
     ip = i2;
     if (!solve()) return fail("PnP failed");
