@@ -159,9 +159,10 @@ class VisionStage {
   // *wait_ms gets the time waited.
   VisionJob take(double* wait_ms) {
     pending_ = false;
+    std::unique_lock<std::mutex> lock(m_, std::defer_lock);  // held to the end when overlapped
     if (overlap_) {
       const auto t0 = Clock::now();
-      std::unique_lock<std::mutex> lock(m_);
+      lock.lock();
       cv_.wait(lock, [this] { return done_.has_value() || error_; });
       *wait_ms += ms_since(t0);
       if (error_) std::rethrow_exception(std::exchange(error_, nullptr));

@@ -16,8 +16,8 @@ namespace {
 // stopped about 10 m from the world origin, and a cart that had driven away carried none.
 // Sunlight is the same everywhere, so each frame the line is moved through the point where
 // the camera's optical axis meets the first surface (a ray: the platform in the last metre,
-// else the ground), and the half-width set to hold the camera's footprint there (its half-diagonal is ~1.15 x the distance straight down; 1.5 x leaves
-// room for tilted views). Light keeps a point's position across its rays, so a caster
+// else the ground), and the half-width set to hold the camera's footprint there (its
+// half-diagonal is ~1.15 x the distance straight down; 1.5 x leaves room for tilted views). Light keeps a point's position across its rays, so a caster
 // outside that box throws its shadow outside it too, i.e. outside the view. The shadow map's
 // texels (2048 over 3 x the distance) then stay about as fine as the image's pixels on that
 // surface (1/640 of the distance): with a fixed 2 m minimum, at 0.3 m the texels were 5
