@@ -6,6 +6,7 @@
 #include <string>
 
 #include "common/json_checks.h"
+#include "common/pose_errors.h"
 #include "lander/estimator/vision_detector.h"
 #include "lander/bench/estimator_bench.h"
 #include "lander/bench/peer_detectors.h"
@@ -59,10 +60,6 @@ std::array<Eigen::Vector2d, 4> true_corners(const CameraModel& cam, const Eigen:
   return out;
 }
 
-double rot_err(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return Eigen::AngleAxisd(a.linear().transpose() * b.linear()).angle();
-}
-
 TEST(PeerDetectors, MarkerTexturesHaveTheLayout) {
   const TargetGeometry& g = target();
   EXPECT_NEAR(marker_side_m(g), 1.2, 1e-12);
@@ -99,7 +96,7 @@ TEST_P(PeerOnViews, CornersAndPoseMatchTruth) {
     EXPECT_LT((a.corners_px[i] - truth[i]).norm(), kCornerTolPx) << "apriltag corner " << i;
   }
   EXPECT_LT((a.X_CP.translation() - X.translation()).norm(), kPosTolPerMetre * dist);
-  EXPECT_LT(rot_err(a.X_CP, X), 0.02);
+  EXPECT_LT(test::rotation_error_rad(a.X_CP, X), 0.02);
   EXPECT_GT(a.time_ms, 0.0);
 
   const cv::Mat aimg = aruco_view.render(cam, X);

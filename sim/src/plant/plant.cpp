@@ -34,6 +34,17 @@ RotorArray to_rotor_array(const std::vector<double>& v) {
 
 }  // namespace
 
+void apply_light(mjModel* m, const LightParams& L) {
+  const int sun = require_named(m, mjOBJ_LIGHT, "sun");
+  const Eigen::Vector3d dir = L.sun_dir_W.normalized();
+  for (int i = 0; i < 3; ++i) {
+    m->light_dir[3 * sun + i] = static_cast<float>(dir[i]);
+    m->light_diffuse[3 * sun + i] = static_cast<float>(L.sun_intensity);
+    m->vis.headlight.ambient[i] = static_cast<float>(L.ambient);
+    m->vis.headlight.diffuse[i] = static_cast<float>(L.headlight);
+  }
+}
+
 void apply_plant_truth(const Scenario& s, World& world) {
   mjModel* m = world.model();
   mjData* d = world.data();
@@ -82,16 +93,7 @@ void apply_plant_truth(const Scenario& s, World& world) {
   const bool light_changed = L.sun_dir_W != nominal.sun_dir_W ||
                              L.sun_intensity != nominal.sun_intensity || L.ambient != nominal.ambient ||
                              L.headlight != nominal.headlight;
-  if (light_changed) {
-    const int sun = require_named(m, mjOBJ_LIGHT, "sun");
-    const Eigen::Vector3d dir = L.sun_dir_W.normalized();
-    for (int i = 0; i < 3; ++i) {
-      m->light_dir[3 * sun + i] = static_cast<float>(dir[i]);
-      m->light_diffuse[3 * sun + i] = static_cast<float>(L.sun_intensity);
-      m->vis.headlight.ambient[i] = static_cast<float>(L.ambient);
-      m->vis.headlight.diffuse[i] = static_cast<float>(L.headlight);
-    }
-  }
+  if (light_changed) apply_light(m, L);
   if (s.render.shadows) m->light_castshadow[require_named(m, mjOBJ_LIGHT, "sun")] = 1;
   mj_forward(m, d);
 }

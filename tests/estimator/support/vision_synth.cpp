@@ -352,12 +352,4 @@ std::vector<int> ring_sets_crossed(const TargetGeometry& g, const ShadowBand& ba
   return ids;
 }
 
-double rotation_error_rad(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return Eigen::AngleAxisd(a.linear().transpose() * b.linear()).angle();
-}
-
-double position_error_m(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return (a.translation() - b.translation()).norm();
-}
-
 }  // namespace lander::test

@@ -11,6 +11,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
+#include "common/pose_errors.h"
 #include "lander/estimator/target.h"
 #include "lander/estimator/types.h"
 
@@ -91,8 +92,6 @@ cv::Mat distractor_frame(const CameraModel& camera, std::uint64_t seed);
 void apply_image_band(cv::Mat& img, const Eigen::Vector2d& point_px, double angle_deg,
                       double width_px, double light);
 
-// Rotation angle between two rotations (rad) and position distance (m).
-double rotation_error_rad(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b);
-double position_error_m(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b);
+// rotation_error_rad() and position_error_m(): common/pose_errors.h.
 
 }  // namespace lander::test

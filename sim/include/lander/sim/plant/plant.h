@@ -20,6 +20,10 @@ namespace lander::sim {
 // or step (closed-loop and scripted runs alike).
 void apply_plant_truth(const Scenario& s, World& world);
 
+// Lights the model as `light` says: the sun's direction and intensity (the light named "sun"),
+// the headlight's ambient and diffuse. Throws ConfigError if the model has no "sun".
+void apply_light(mjModel* m, const LightParams& light);
+
 class Plant {
  public:
   // Puts the cart at its path's start and the vehicle at the start pose, hovering (rotors at
