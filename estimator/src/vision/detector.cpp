@@ -1091,10 +1091,11 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vect
   // Blur-aware pass (issue 12): no pose from the frame as it is, and the caller predicts a
   // blur long enough to close the inner circles and bridge the gaps: the rings again, on the
   // frame deconvolved with that blur. The acceptance gates are the same.
+  cv::Mat sharp;  // the deconvolved frame, when the pass ran
   if (!d.detected && params_.deblur_min_px > 0 && blur_px.allFinite() &&
       blur_px.norm() >= params_.deblur_min_px && full.width >= 16 && full.height >= 16) {
     whole_grey();
-    const cv::Mat sharp = vision_internal::wiener_deblur(grey, blur_px, params_.deblur_noise_ratio);
+    sharp = vision_internal::wiener_deblur(grey, blur_px, params_.deblur_noise_ratio);
     RingDetection d2;
     std::vector<EllipseCandidate> c2;
     std::ostringstream os;
@@ -1106,6 +1107,38 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vect
       cands = std::move(c2);
     } else {
       d.reason += "; " + os.str() + ": " + d2.reason;
+    }
+  }
+  // Unfiltered pass (issue 12: far and grazing views): no pose, and the failed passes found
+  // small ellipses. The pre-filter that makes large rings' edges precise closes the inner
+  // circles of sets 5-8 px across and reads their ratios low (a set named as its neighbour in
+  // ratio); the frame (then the deconvolved frame, if any) is searched again without it,
+  // under the same gates. Frames detected with the filter are untouched.
+  if (!d.detected && params_.unfiltered_pass && params_.gaussian_sigma_px > 0 &&
+      full.width >= 16 && full.height >= 16) {
+    int small = 0;
+    for (const auto& e : d.ellipses) small += e.image.b <= params_.unfiltered_max_minor_px;
+    if (small >= params_.unfiltered_min_ellipses) {
+      whole_grey();
+      VisionParams pu = params_;
+      pu.gaussian_sigma_px = 0.0;
+      for (const cv::Mat* frame : {&grey, &sharp}) {
+        if (frame->empty()) continue;
+        const bool deconvolved = frame == &sharp;
+        RingDetection du;
+        std::vector<EllipseCandidate> cu;
+        const std::string what = deconvolved ? "unfiltered pass on the deconvolved frame"
+                                             : "unfiltered pass";
+        if (search_region(*frame, full, camera_, target_, pu, du, cu)) {
+          du.reason = what + ": " + du.reason + " (pre-filtered: " + d.reason + ")";
+          du.unfiltered = true;
+          du.deblurred = deconvolved;
+          d = std::move(du);
+          cands = std::move(cu);
+          break;
+        }
+        d.reason += "; " + what + ": " + du.reason;
+      }
     }
   }
   // Zoomed pass (issue 12: far and grazing views): no pose, and the failed passes found small
@@ -1249,6 +1282,7 @@ std::string to_json(const RingDetection& d) {
   j["rho"] = d.rho;
   j["used_roi"] = d.used_roi;
   j["deblurred"] = d.deblurred;
+  j["unfiltered"] = d.unfiltered;
   j["zoomed"] = d.zoomed;
   j["by_layout"] = d.by_layout;
   j["roi"] = {d.roi.x, d.roi.y, d.roi.width, d.roi.height};

@@ -33,6 +33,8 @@ void VisionParams::validate() const {
   require(ratio_tol > 0 && ratio_tol < 0.5, "ratio_tol", "must be in (0, 0.5)");
   require(min_rings >= 4, "min_rings", "must be >= 4 (planar PnP needs four points)");
   require(max_centre_reproj_px > 0, "max_centre_reproj_px", "must be > 0");
+  require(unfiltered_max_minor_px > 0, "unfiltered_max_minor_px", "must be > 0");
+  require(unfiltered_min_ellipses >= 0, "unfiltered_min_ellipses", "must be >= 0");
   require(layout_ratio_tol > 0 && layout_ratio_tol < 0.5, "layout_ratio_tol", "must be in (0, 0.5)");
   require(layout_max_ratio_bias >= 0 && layout_max_ratio_bias < 0.5, "layout_max_ratio_bias",
           "must be in [0, 0.5)");

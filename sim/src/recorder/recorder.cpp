@@ -161,6 +161,7 @@ void Recorder::on_frame(const CameraFrame& frame, const FrameCapture& cap, const
   if (det.detected) {
     ++detections_;
     if (det.deblurred) ++detections_deblurred_;
+    if (det.unfiltered) ++detections_unfiltered_;
     if (det.zoomed) ++detections_zoomed_;
     if (det.by_layout) ++detections_by_layout_;
     if (det.keyframe) ++keyframes_;
@@ -333,6 +334,7 @@ void Recorder::finish(const Outcome& outcome, const flight::FlightStack& fs, Jso
   vision["frames"] = frames_;
   vision["detections"] = detections_;
   vision["detections_deblurred"] = detections_deblurred_;
+  vision["detections_unfiltered"] = detections_unfiltered_;
   vision["detections_zoomed"] = detections_zoomed_;
   vision["detections_by_layout"] = detections_by_layout_;
   vision["keyframes"] = keyframes_;

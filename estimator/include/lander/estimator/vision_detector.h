@@ -123,6 +123,8 @@ struct RingDetection {
   bool used_roi{false};          ///< found in the predicted region (tracking)
   bool deblurred{false};         ///< the pose came from the frame deconvolved for the
                                  ///< predicted blur (detect()'s blur_px)
+  bool unfiltered{false};        ///< the pose came from the unfiltered pass (no Gaussian
+                                 ///< pre-filter: small, far or grazing ring sets)
   bool zoomed{false};            ///< the pose came from the zoomed pass (a small target's
                                  ///< region magnified twice)
   bool by_layout{false};         ///< its ring sets were identified by the layout

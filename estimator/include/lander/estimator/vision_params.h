@@ -62,6 +62,18 @@ struct VisionParams {
                                      ///< centres, the solution that fits the six conics (and
                                      ///< clearly better than any other P3P solution)
   double max_centre_reproj_px{3.0};  ///< centre outlier gate after the initial PnP (px)
+  // ---- unfiltered pass (issue 12: far and grazing views) ----
+  bool unfiltered_pass{true};        ///< no pose from the frame, and the failed passes found
+                                     ///< at least unfiltered_min_ellipses small ellipses: the
+                                     ///< frame is searched again without the Gaussian pre-
+                                     ///< filter (same gates). Where ring sets are 5-8 px across
+                                     ///< the filter closes the small inner circles and reads
+                                     ///< the ratios 0.05-0.1 low, naming sets wrongly; on larger
+                                     ///< rings it is the more precise, so it stays first
+  double unfiltered_max_minor_px{6.0};  ///< an ellipse counts as small below this minor
+                                     ///< semi-axis (px)
+  int unfiltered_min_ellipses{2};    ///< small ellipses needed to try the pass (target-free
+                                     ///< frames rarely have two; the pass costs a search)
   // ---- identification by the layout (issue 12: far and grazing views; vision_layout.h) ----
   bool layout_identification{false};  ///< when the ratio-by-ratio identification gives no
                                      ///< pose, identify the sets by their places on the
@@ -181,6 +193,9 @@ void visit_fields(V& v, VisionParams& p) {
   v("min_rings", p.min_rings);
   v("three_ring_pose", p.three_ring_pose);
   v("max_centre_reproj_px", p.max_centre_reproj_px);
+  v("unfiltered_pass", p.unfiltered_pass);
+  v("unfiltered_max_minor_px", p.unfiltered_max_minor_px);
+  v("unfiltered_min_ellipses", p.unfiltered_min_ellipses);
   v("layout_identification", p.layout_identification);
   v("layout_ratio_tol", p.layout_ratio_tol);
   v("layout_max_ratio_bias", p.layout_max_ratio_bias);

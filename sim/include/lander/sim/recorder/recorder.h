@@ -104,6 +104,7 @@ class Recorder {
   LandingJudge judge_;
   int frames_ = 0, detections_ = 0, keyframes_ = 0, keyframes_rejected_ = 0;
   int detections_deblurred_ = 0;  // poses from the blur-aware pass (issue 12)
+  int detections_unfiltered_ = 0;  // ... from the unfiltered pass (issue 12)
   int detections_zoomed_ = 0;     // ... from the zoomed pass (issue 12)
   int detections_by_layout_ = 0;  // ... whose sets were identified by the layout (issue 12)
   int outliers_injected_ = 0;
