@@ -4,6 +4,8 @@
 // and rotation against the truth), a frame the earlier passes detect must be detected the
 // same way, and target-free frames with ring-like decoys must stay empty.
 #include <iostream>
+#include <sstream>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -29,14 +31,22 @@ VisionParams far_params() {
   return p;
 }
 
-TEST(VisionFar, ZoomedAndLayoutPosesAreRightOrAbsent) {
+struct FarViewCounts {
+  int detected{0};      // views `p` detects
+  int detected_off{0};  // views `off` detects
+  int extra{0};         // views whose pose came from the passes under test
+};
+
+// The 12 far views (12 and 16 m, 40-60 deg, exactly drawn, noise 2 grey levels), each
+// detected with `p` and with `off`: every pose `p` reports must be right. `same(d, d0, where)`
+// checks a view `off` detects against `p`'s result; `by_passes(d)` says `p`'s pose came from
+// the passes under test.
+template <class Same, class ByPasses>
+FarViewCounts run_far_views(const VisionParams& p, const VisionParams& off, Same same,
+                            ByPasses by_passes) {
   const TargetGeometry& g = test::default_target();
   const CameraModel cam;
-  const VisionParams p = far_params();
-  VisionParams off = p;
-  off.zoom_pass = false;
-  off.layout_identification = false;
-  int detected = 0, detected_off = 0, extra = 0;
+  FarViewCounts n;
   int k = 0;
   for (double alt : {12.0, 16.0}) {
     for (double tilt : {40.0, 50.0, 60.0}) {
@@ -48,95 +58,85 @@ TEST(VisionFar, ZoomedAndLayoutPosesAreRightOrAbsent) {
         const cv::Mat img = test::render_view(g, cam, X, opt);
         const RingDetection d = detect_ring_target(img, cam, g, p);
         const RingDetection d0 = detect_ring_target(img, cam, g, off);
-        detected_off += d0.detected;
+        std::ostringstream os;
+        os << alt << " m, " << tilt << " deg: ";
+        const std::string where = os.str();
+        n.detected_off += d0.detected;
+        if (d0.detected) same(d, d0, where);
         if (!d.detected) continue;
-        ++detected;
-        extra += d.zoomed || d.by_layout;
+        ++n.detected;
+        n.extra += by_passes(d);
         const double range = X.translation().norm();
-        EXPECT_LT(test::position_error_m(d.X_CP, X), kMaxPosFrac * range)
-            << alt << " m, " << tilt << " deg: " << d.reason;
+        EXPECT_LT(test::position_error_m(d.X_CP, X), kMaxPosFrac * range) << where << d.reason;
         EXPECT_LT(test::rotation_error_rad(d.X_CP, X) * 180.0 / M_PI, kMaxRotDeg)
-            << alt << " m, " << tilt << " deg: " << d.reason;
-        // A frame the default passes detect is detected the same way with them on.
-        if (d0.detected && !d.zoomed && !d.by_layout) {
-          EXPECT_EQ(test::position_error_m(d.X_CP, d0.X_CP), 0.0) << d.reason;
-        }
+            << where << d.reason;
       }
     }
   }
-  EXPECT_GE(detected, detected_off);
-  // The passes are exercised here: on these frames they give poses the default passes do not
-  // (4 of 12 while developing; 2 without them).
-  EXPECT_GT(extra, 0);
-  std::cout << "far views: " << detected << " of 12 detected with the passes (" << extra
-            << " by them), " << detected_off << " without\n";
+  return n;
 }
 
-TEST(VisionFar, TargetFreeFramesStayEmptyWithThePassesOn) {
+// Target-free frames with ring-like decoys give no pose with `p`.
+void expect_target_free(const VisionParams& p) {
   const CameraModel cam;
-  const VisionParams p = far_params();
   for (std::uint64_t seed = 1; seed <= 20; ++seed) {
     const cv::Mat img = test::distractor_frame(cam, seed);
     const RingDetection d = detect_ring_target(img, cam, test::default_target(), p);
     EXPECT_FALSE(d.detected) << "seed " << seed << ": " << d.reason;
   }
 }
+
+TEST(VisionFar, ZoomedAndLayoutPosesAreRightOrAbsent) {
+  const VisionParams p = far_params();
+  VisionParams off = p;
+  off.zoom_pass = false;
+  off.layout_identification = false;
+  const FarViewCounts n = run_far_views(
+      p, off,
+      // A frame the default passes detect is detected the same way with them on.
+      [](const RingDetection& d, const RingDetection& d0, const std::string& where) {
+        if (d.detected && !d.zoomed && !d.by_layout) {
+          EXPECT_EQ(test::position_error_m(d.X_CP, d0.X_CP), 0.0) << where << d.reason;
+        }
+      },
+      [](const RingDetection& d) { return d.zoomed || d.by_layout; });
+  EXPECT_GE(n.detected, n.detected_off);
+  // The passes are exercised here: on these frames they give poses the default passes do not
+  // (4 of 12 while developing; 2 without them).
+  EXPECT_GT(n.extra, 0);
+  std::cout << "far views: " << n.detected << " of 12 detected with the passes (" << n.extra
+            << " by them), " << n.detected_off << " without\n";
+}
+
+TEST(VisionFar, TargetFreeFramesStayEmptyWithThePassesOn) { expect_target_free(far_params()); }
 
 // The unfiltered pass, as shipped: without it the Gaussian pre-filter closes the inner
 // circles of 5-8 px ring sets and reads their ratios low; with it more of these views give a
 // pose, every one right, and the views the filtered passes detect are untouched.
 TEST(VisionFar, UnfilteredPassPosesAreRightOrAbsent) {
-  const TargetGeometry& g = test::default_target();
-  const CameraModel cam;
   VisionParams p;
   p.tracking = false;
   ASSERT_TRUE(p.unfiltered_pass) << "the pass is on by default";
   VisionParams off = p;
   off.unfiltered_pass = false;
-  int detected = 0, detected_off = 0, extra = 0;
-  int k = 0;
-  for (double alt : {12.0, 16.0}) {
-    for (double tilt : {40.0, 50.0, 60.0}) {
-      for (double yaw : {15.0, 75.0}) {
-        const Eigen::Isometry3d X = test::look_at_pose(alt, tilt, yaw, 30.0 * k++);
-        test::SynthOptions opt;
-        opt.noise_sigma = 2.0;
-        opt.seed = static_cast<std::uint64_t>(k);
-        const cv::Mat img = test::render_view(g, cam, X, opt);
-        const RingDetection d = detect_ring_target(img, cam, g, p);
-        const RingDetection d0 = detect_ring_target(img, cam, g, off);
-        detected_off += d0.detected;
-        if (d0.detected) {
-          EXPECT_TRUE(d.detected && !d.unfiltered) << alt << " m, " << tilt << " deg: " << d.reason;
-          EXPECT_EQ(test::position_error_m(d.X_CP, d0.X_CP), 0.0) << d.reason;
-        }
-        if (!d.detected) continue;
-        ++detected;
-        extra += d.unfiltered;
-        const double range = X.translation().norm();
-        EXPECT_LT(test::position_error_m(d.X_CP, X), kMaxPosFrac * range)
-            << alt << " m, " << tilt << " deg: " << d.reason;
-        EXPECT_LT(test::rotation_error_rad(d.X_CP, X) * 180.0 / M_PI, kMaxRotDeg)
-            << alt << " m, " << tilt << " deg: " << d.reason;
-      }
-    }
-  }
-  EXPECT_GE(detected, detected_off);
-  EXPECT_GT(extra, 0) << "the pass should add poses on these frames (4 of 12 while developing)";
-  std::cout << "far views, unfiltered pass: " << detected << " of 12 detected (" << extra
-            << " by it), " << detected_off << " without\n";
+  const FarViewCounts n = run_far_views(
+      p, off,
+      [](const RingDetection& d, const RingDetection& d0, const std::string& where) {
+        EXPECT_TRUE(d.detected && !d.unfiltered) << where << d.reason;
+        EXPECT_EQ(test::position_error_m(d.X_CP, d0.X_CP), 0.0) << d.reason;
+      },
+      [](const RingDetection& d) { return d.unfiltered; });
+  EXPECT_GE(n.detected, n.detected_off);
+  EXPECT_GT(n.extra, 0) << "the pass should add poses on these frames (4 of 12 while developing)";
+  std::cout << "far views, unfiltered pass: " << n.detected << " of 12 detected (" << n.extra
+            << " by it), " << n.detected_off << " without\n";
 }
 
 TEST(VisionFar, TargetFreeFramesStayEmptyWithTheUnfilteredPass) {
-  const CameraModel cam;
   VisionParams p;
   p.tracking = false;
   ASSERT_TRUE(p.unfiltered_pass);
-  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
-    const cv::Mat img = test::distractor_frame(cam, seed);
-    const RingDetection d = detect_ring_target(img, cam, test::default_target(), p);
-    EXPECT_FALSE(d.detected) << "seed " << seed << ": " << d.reason;
-  }
+  expect_target_free(p);
 }
 
 }  // namespace
