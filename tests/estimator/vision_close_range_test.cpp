@@ -176,6 +176,86 @@ TEST(VisionCloseRange, DescentKeepsAFreshPoseEveryFrame) {
   EXPECT_TRUE(saw_rings);
 }
 
+// Given views from 0.8 to 2.0 m (tilts 0 and 20 deg, random yaw and aim, noise; a plain and a
+// distorted camera) where the rings give this frame's pose, when the code is searched only
+// around its projection (code_search_region, the default), then the region is a part of the
+// frame (used in every view from 1.6 m, where it is at most half the frame), every code pose is within the tolerances of the truth, its corners are in the frame's
+// pixels (they reproject through the true pose within kCornerTolPx), and it reads the code in
+// at least as many views as the whole-frame search.
+TEST(VisionCloseRange, CodeSearchedAroundThePoseMatchesTheTruth) {
+  const TargetGeometry& g = test::default_target();
+  // Sub-pixel corners on these renders are within about 0.1 px (above); 0.5 px is five times
+  // that, and far below the 6+ px a region offset left in the corners would show.
+  constexpr double kCornerTolPx = 0.5;
+  CameraModel distorted;
+  distorted.k1 = -0.12;
+  distorted.k2 = 0.03;
+  distorted.p1 = 0.001;
+  VisionParams whole;
+  whole.code_search_region = false;
+  std::mt19937 rng(29);
+  std::uniform_real_distribution<double> U(0, 1);
+  int views = 0, with_region = 0, with_whole = 0;
+  // Rendering through the distortion is slow: two views with it.
+  for (const CameraModel& cam : {kCam, distorted}) {
+    for (const double h : {0.8, 1.6, 2.0}) {
+      for (const double tilt : {0.0, 20.0}) {
+        if (cam.k1 != 0.0 && (h < 1.6 || tilt > 0.0)) continue;
+        const double r = kMaxOffsetM * std::sqrt(U(rng)), ang = 2 * M_PI * U(rng);
+        const auto X = test::look_at_pose(h, tilt, 360 * U(rng), 360 * U(rng),
+                                          Eigen::Vector2d(r * std::cos(ang), r * std::sin(ang)));
+        SCOPED_TRACE("height " + std::to_string(h) + " tilt " + std::to_string(tilt) + " k1 " +
+                     std::to_string(cam.k1));
+        test::SynthOptions o;
+        o.noise_sigma = kNoiseGrey;
+        o.seed = 300 + views++;
+        const cv::Mat img = test::render_view(g, cam, X, o);
+        const RingDetection d = detect_ring_target(img, cam, g, VisionParams{});
+        const RingDetection w = detect_ring_target(img, cam, g, whole);
+        EXPECT_EQ(w.code_region.area(), 0) << "code_search_region off searches the whole frame";
+        with_whole += w.code.detected ? 1 : 0;
+        if (!d.code_searched) continue;
+        EXPECT_LT(d.code_region.area(), 0.7 * img.cols * img.rows);
+        if (h >= 1.6) {
+          EXPECT_GT(d.code_region.area(), 0) << "rings detected: " << d.detected;
+        }
+        if (!d.code.detected) continue;
+        ++with_region;
+        // The code alone is a patch of fixed size: its tilt error grows with the square of the
+        // distance (a corner moves by f w^2 delta / z^2), so kRotTolRad, set for 1.2 m, scales.
+        const double z = X.translation().norm();
+        EXPECT_LT(test::position_error_m(d.code.X_CP, X), kPosTolPerMetre * z);
+        EXPECT_LT(test::rotation_error_rad(d.code.X_CP, X), kRotTolRad * std::max(1.0, z * z / 1.44));
+        const Eigen::Matrix3d K = cam.K();
+        for (std::size_t i = 0; i < d.code.corners_px.size(); ++i) {
+          const Eigen::Vector3d q = K * (X * Eigen::Vector3d(d.code.corners_P_m[i].x(),
+                                                             d.code.corners_P_m[i].y(), 0.0));
+          ASSERT_LT((q.head<2>() / q.z() - d.code.corners_px[i]).norm(), kCornerTolPx) << "corner " << i;
+        }
+      }
+    }
+  }
+  EXPECT_GE(with_region, with_whole);
+}
+
+// Given a track with the platform at one side of the view (1.8 m, aimed 0.9 m off its
+// centre), when the next frame is 0.3 m above the platform with its code on the other side
+// of the view (no ring set whole), then the code's region from the track misses most of the
+// map, the whole frame is searched, and the code pose is found and right.
+TEST(VisionCloseRange, CodeRegionFromAStaleTrackFallsBackToTheWholeFrame) {
+  const TargetGeometry& g = test::default_target();
+  RingTargetDetector det(kCam, g, VisionParams{});
+  const auto X0 = test::look_at_pose(1.8, 0.0, 0.0, 0.0, Eigen::Vector2d(0.9, 0.0));
+  ASSERT_TRUE(det.detect(test::render_view(g, kCam, X0)).detected);
+  const auto X1 = test::look_at_pose(0.3, 0.0, 0.0, 0.0, Eigen::Vector2d(-0.12, 0.0));
+  const RingDetection d = det.detect(test::render_view(g, kCam, X1));
+  ASSERT_TRUE(d.detected) << d.reason;
+  EXPECT_EQ(d.source, PoseSource::Code);
+  EXPECT_EQ(d.code_region.area(), 0) << "the whole frame after the region missed";
+  EXPECT_LT(test::position_error_m(d.X_CP, X1), kPosTolPerMetre * X1.translation().norm());
+  EXPECT_LT(test::rotation_error_rad(d.X_CP, X1), kRotTolRad);
+}
+
 // Given a camera with lens distortion (calibrated model) and motion blur up to 6 px with
 // noise, close-range frames still give the code pose within the same tolerances: corners are
 // refined in the raw image and undistorted; blur moves both sides of a corner alike.

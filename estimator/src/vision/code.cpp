@@ -476,10 +476,10 @@ std::vector<ObservedCell> read_cells_local_white(const std::vector<CellRead>& re
   return cells;
 }
 
-}  // namespace
-
-CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
-                                  const TargetGeometry& g, const VisionParams& p) {
+// Steps 1-5 on `grey` (the camera's whole image, or a region of it with `cam` shifted to
+// it) with the adaptive threshold's block `block` px.
+CodeDetection detect_code_impl(const cv::Mat& grey, const CameraModel& cam, const TargetGeometry& g,
+                               const VisionParams& p, int block) {
   CodeDetection d;
   auto fail = [&](std::string why) {
     d.detected = false;
@@ -491,8 +491,6 @@ CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
   const double minc = p.code_min_cell_px;
   // ---- 1. threshold, contours, polygon vertices and sides ----
   cv::Mat bin;
-  const int block = std::min(p.code_threshold_block_px,
-                             (std::min(grey.cols, grey.rows) / 2) * 2 - 1);
   if (block < 3) return fail("image too small");
   cv::adaptiveThreshold(grey, bin, 255, cv::ADAPTIVE_THRESH_MEAN_C, cv::THRESH_BINARY_INV, block,
                         p.code_threshold_offset);
@@ -969,6 +967,36 @@ CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
      << d.placement.mismatched << " disagree, " << obj.size() << " corners, rotation "
      << d.placement.rotation;
   d.reason = os.str();
+  return d;
+}
+
+// The adaptive threshold's block on a whole frame: code_threshold_block_px, at most the
+// largest odd size within half the frame's shorter side.
+int threshold_block(const cv::Mat& frame, const VisionParams& p) {
+  return std::min(p.code_threshold_block_px, (std::min(frame.cols, frame.rows) / 2) * 2 - 1);
+}
+
+}  // namespace
+
+CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
+                                  const TargetGeometry& g, const VisionParams& p) {
+  return detect_code_impl(grey, cam, g, p, threshold_block(grey, p));
+}
+
+CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
+                                  const TargetGeometry& g, const VisionParams& p,
+                                  const cv::Rect& region) {
+  const cv::Rect r = region & cv::Rect(0, 0, grey.cols, grey.rows);
+  if (grey.empty() || r.width < 16 || r.height < 16) {
+    CodeDetection d;
+    d.reason = "code: search region outside the frame";
+    return d;
+  }
+  // A copy: no filter of the search reads pixels outside the region. The block is the whole
+  // frame's, so pixels at least half a block inside the region threshold as on the frame.
+  CodeDetection d = detect_code_impl(grey(r).clone(), vision_internal::zoomed_camera(cam, r, 1), g,
+                                     p, threshold_block(grey, p));
+  for (auto& c : d.corners_px) c += Eigen::Vector2d(r.x, r.y);
   return d;
 }
 

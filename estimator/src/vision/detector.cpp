@@ -897,6 +897,44 @@ cv::Rect covering_rect(double x0, double y0, double x1, double y1, const cv::Rec
          full;
 }
 
+// Where to search the code map (seed 001) in a frame whose pose `X_CP` is known (this frame's
+// rings, else the track): the projection of the square around the centre ring's inner circle
+// (the map and the white cells the lattice reads around it), grown by a slack for a tracked
+// pose (a quarter of its size and 16 px) and by half the threshold's block, so that around the
+// map the threshold is the whole frame's. Nothing (search the whole frame) when a corner is
+// behind the camera or the region would be most of the frame anyway.
+std::optional<cv::Rect> code_region(const Eigen::Isometry3d& X_CP, const CameraModel& cam,
+                                    const TargetGeometry& g, const VisionParams& p,
+                                    const cv::Rect& full) {
+  double s = 0.5 * g.code.side_m();
+  for (const auto& r : g.rings) {
+    if (r.centre_P_m.norm() < 1e-9) s = std::max(s, r.inner_radius_m);
+  }
+  std::vector<cv::Point3d> pts;
+  for (const double x : {-s, s}) {
+    for (const double y : {-s, s}) {
+      const Eigen::Vector3d q = X_CP * Eigen::Vector3d(x, y, 0);
+      if (!(q.z() > 0.05)) return std::nullopt;
+      pts.emplace_back(q.x(), q.y(), q.z());
+    }
+  }
+  std::vector<cv::Point2d> img;
+  cv::projectPoints(pts, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), camera_matrix_cv(cam),
+                    dist_coeffs_cv(cam), img);
+  double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
+  for (const auto& q : img) {
+    x0 = std::min(x0, q.x);
+    y0 = std::min(y0, q.y);
+    x1 = std::max(x1, q.x);
+    y1 = std::max(y1, q.y);
+  }
+  if (!std::isfinite(x0 + y0 + x1 + y1)) return std::nullopt;
+  const double grow = 0.25 * std::max(x1 - x0, y1 - y0) + 16 + 0.5 * p.code_threshold_block_px + 1;
+  const cv::Rect r = covering_rect(x0 - grow, y0 - grow, x1 + grow, y1 + grow, full);
+  if (r.width < 16 || r.height < 16 || r.area() >= 0.7 * full.area()) return std::nullopt;
+  return r;
+}
+
 // Regions for the zoomed pass: clusters of the failed pass's small ellipses (a ring set and
 // its neighbours lie within a few of their radii of each other), the most populous first,
 // each grown by its own size on every side (the sets not found lie around the ones found).
@@ -954,19 +992,6 @@ std::vector<cv::Rect> zoom_regions(const std::vector<DetectedEllipse>& ellipses,
     out.push_back(r);
   }
   return out;
-}
-
-// The camera of `region` magnified `s` times: pixel centres at integers in both images, so
-// u_zoom = s (u - x0 + 0.5) - 0.5; the distortion acts on normalised coordinates and stays.
-CameraModel zoomed_camera(const CameraModel& cam, const cv::Rect& region, int s) {
-  CameraModel z = cam;
-  z.width_px = region.width * s;
-  z.height_px = region.height * s;
-  z.fx_px = cam.fx_px * s;
-  z.fy_px = cam.fy_px * s;
-  z.cx_px = s * (cam.cx_px - region.x + 0.5) - 0.5;
-  z.cy_px = s * (cam.cy_px - region.y + 0.5) - 0.5;
-  return z;
 }
 
 // Maps a detection made on the zoomed region back to the frame's pixels (the pose does not
@@ -1153,7 +1178,7 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vect
     for (const cv::Rect& region : zoom_regions(d.ellipses, full, params_)) {
       cv::Mat zoomed;
       cv::resize(grey(region), zoomed, cv::Size(), kZoom, kZoom, cv::INTER_CUBIC);
-      const CameraModel zcam = zoomed_camera(camera_, region, kZoom);
+      const CameraModel zcam = vision_internal::zoomed_camera(camera_, region, kZoom);
       RingDetection dz;
       std::vector<EllipseCandidate> cz;
       const bool ok = search_region(zoomed, cv::Rect(0, 0, zoomed.cols, zoomed.rows), zcam, target_,
@@ -1186,9 +1211,21 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vect
       search = z > 0 && target_.code.cell_m * camera_.fx_px / z >= params_.code_min_cell_px;
     }
     if (search) {
-      whole_grey();
       d.code_searched = true;
-      d.code = detect_code_pattern(grey, camera_, target_, params_);
+      const auto region = ref != nullptr && params_.code_search_region
+                              ? code_region(*ref, camera_, target_, params_, full)
+                              : std::nullopt;
+      if (region) {
+        if (!grey_full) grey_region(image, *region, grey);
+        d.code = detect_code_pattern(grey, camera_, target_, params_, *region);
+        d.code_region = *region;
+      }
+      // A region from the track (a frame old) may have missed the map: the whole frame then.
+      if (!region || (!d.code.detected && !d.detected)) {
+        whole_grey();
+        d.code = detect_code_pattern(grey, camera_, target_, params_);
+        d.code_region = cv::Rect();
+      }
     }
   }
   combine_sources(d, cands, camera_.K(), target_, params_, track);
@@ -1258,6 +1295,10 @@ std::string to_json(const RingDetection& d) {
   j["reason"] = d.reason;
   j["source"] = to_string(d.source);
   j["code"] = {{"searched", d.code_searched},
+               {"region", d.code_region.area() > 0
+                              ? Json::array({d.code_region.x, d.code_region.y,
+                                                       d.code_region.width, d.code_region.height})
+                              : Json(nullptr)},
                {"detected", d.code.detected},
                {"reason", d.code.reason},
                {"cells_read", d.code.cells_read},

@@ -87,6 +87,19 @@ constexpr double kMaxIntCoord = 16777216.0;  // 2^24: far outside any image, exa
 // position): G conj(H) / (|H|^2 + k), computed with one DFT of the frame (edges replicated).
 cv::Mat wiener_deblur(const cv::Mat& grey, const Eigen::Vector2d& blur_px, double k);
 
+// The camera of `region` magnified `s` times: pixel centres at integers in both images, so
+// u_zoom = s (u - x0 + 0.5) - 0.5; the distortion acts on normalised coordinates and stays.
+inline CameraModel zoomed_camera(const CameraModel& cam, const cv::Rect& region, int s) {
+  CameraModel z = cam;
+  z.width_px = region.width * s;
+  z.height_px = region.height * s;
+  z.fx_px = cam.fx_px * s;
+  z.fy_px = cam.fy_px * s;
+  z.cx_px = s * (cam.cx_px - region.x + 0.5) - 0.5;
+  z.cy_px = s * (cam.cy_px - region.y + 0.5) - 0.5;
+  return z;
+}
+
 inline std::optional<int> to_int_coord(double v) {
   if (!(std::abs(v) <= kMaxIntCoord)) return std::nullopt;  // also false for NaN
   return static_cast<int>(v);

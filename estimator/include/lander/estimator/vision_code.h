@@ -80,4 +80,11 @@ struct CodeDetection {
 CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& camera,
                                   const TargetGeometry& target, const VisionParams& p);
 
+// The same, searching only `region` of the frame (clipped to it): for a frame whose pose is
+// known, around the code map's projection. The threshold is the whole frame's wherever its
+// block lies inside the region; corners_px are in the frame's pixels.
+CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& camera,
+                                  const TargetGeometry& target, const VisionParams& p,
+                                  const cv::Rect& region);
+
 }  // namespace lander

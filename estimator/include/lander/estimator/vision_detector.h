@@ -103,6 +103,9 @@ struct RingDetection {
   // showed the code cells too small to read.
   bool code_searched{false};
   CodeDetection code;
+  /// Where the code was searched: around its projection from this frame's ring pose or the
+  /// track (the region of the frame the result comes from), empty for the whole frame.
+  cv::Rect code_region;
 
   Eigen::Isometry3d X_CP{Eigen::Isometry3d::Identity()};  ///< platform pose in camera frame
   /// Covariance of [angle-axis of R_CP (rad); p_CP (m)] from the conic-cost Jacobian,

@@ -148,6 +148,9 @@ struct VisionParams {
   double code_max_reproj_px{1.0};    ///< corner reprojection RMS gate after refinement (px)
   bool code_local_white{true};       ///< when one level for all cells gives no placement, read
                                      ///< each cell against its local white (shadows)
+  bool code_search_region{true};     ///< with a pose (this frame's rings or the track), search
+                                     ///< the code only around its projection (else, or when a
+                                     ///< tracked region misses it, the whole frame)
 
   // ---- fewer-ring poses and combination ----
   bool centre_ring_pose{true};       ///< pose from the central set (both circles) when fewer
@@ -229,6 +232,7 @@ void visit_fields(V& v, VisionParams& p) {
   v("code_min_corners", p.code_min_corners);
   v("code_max_reproj_px", p.code_max_reproj_px);
   v("code_local_white", p.code_local_white);
+  v("code_search_region", p.code_search_region);
   v("centre_ring_pose", p.centre_ring_pose);
   v("tracked_yaw_sigma_rad", p.tracked_yaw_sigma_rad);
   v("tracked_max_jump_m", p.tracked_max_jump_m);
