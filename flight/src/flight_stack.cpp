@@ -42,7 +42,7 @@ VisionResult FlightStack::vision_result(const RingDetection& det, double t_mid_s
 
 Eigen::Vector2d FlightStack::predicted_blur_px(const ExposureInterval& exposure) const {
   const double T = exposure.t_end_s - exposure.t_start_s;
-  const NavState nav = nav_.state();
+  const NavState nav = nav_state();
   if (!config_.estimator.vision.predict_blur || !nav.valid || !(T > 0.0)) return Eigen::Vector2d::Zero();
   const Eigen::Matrix3d R_BC = config_.mount.X_BC().linear();
   const Eigen::Matrix3d R_WC = nav.q_WB.toRotationMatrix() * R_BC;
@@ -124,13 +124,23 @@ std::optional<ctl::RotorCommand> FlightStack::on_imu(const ImuSample& raw) {
   if (!screened) return std::nullopt;
   const ImuSample& s = *screened;
   nav_.add_imu(s);
-  const NavState ns = nav_.state();
   if (fusion_started_) {
-    fusion_.predict(s, ns.q_WB, config_.estimator.navigation.gravity_mps2);
+    fusion_.predict(s, nav_.state().q_WB, config_.estimator.navigation.gravity_mps2);
     controller_.on_altitude(fusion_.estimate());
   }
+  const NavState ns = nav_state();
   if (!ns.valid) return std::nullopt;
   return controller_.step(s.t_s, ns, s);
+}
+
+// The GPS-only vertical channel follows the receiver's slowly varying height error (metres
+// with a degraded GPS: a hold on it drifts with the error); the fusion's height is anchored by
+// the barometer, the ultrasonic and vision.
+NavState FlightStack::nav_state() const {
+  if (config_.estimator.navigation.height_from_altitude_fusion && fusion_started_) {
+    return with_altitude(nav_.state(), fusion_.estimate());
+  }
+  return nav_.state();
 }
 
 }  // namespace lander::flight

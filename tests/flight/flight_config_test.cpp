@@ -2,10 +2,12 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 
 #include <gtest/gtest.h>
 
 #include "lander/flight/flight_config.h"
+#include "lander/estimator/altitude_fusion.h"
 #include "lander/flight/flight_stack.h"
 
 namespace lander::flight {
@@ -104,6 +106,50 @@ TEST(FlightStack, KeepsItsConfiguration) {
   EXPECT_EQ(fs.config().estimator.altitude.platform_height_m, 1.1);
   EXPECT_FALSE(fs.altitude_started());
   EXPECT_FALSE(fs.nav_state().valid);
+}
+
+// Given a vehicle at rest 8 m up whose GPS reads 2 m (a degraded receiver's slowly varying
+// height error) and a barometer that reads true, when the stack has run 5 s, then with
+// navigation.height_from_altitude_fusion the controller's state carries the altitude fusion's
+// height and climb rate exactly, and without it the navigation filter's GPS-only height,
+// which is lower: the fusion also weighs the barometer (with its 3 m bias prior it still
+// takes much of the disagreement as baro bias in 5 s, so only kApart_m is asserted).
+TEST(FlightStack, ControllerFliesOnTheFusedHeight) {
+  constexpr double kApart_m = 0.2;
+  auto run = [](bool fused) {
+    FlightConfig c;
+    c.estimator.navigation.height_from_altitude_fusion = fused;
+    auto fs = std::make_unique<FlightStack>(c);
+    const double g = c.estimator.navigation.gravity_mps2;
+    for (int k = 0; k <= 5000; ++k) {  // IMU at 1 kHz, baro at 50 Hz, GPS at 5 Hz
+      const double t = k * 1e-3;
+      ImuSample imu;
+      imu.t_s = t;
+      imu.accel_B_mps2 = Eigen::Vector3d(0.0, 0.0, g);
+      fs->on_imu(imu);
+      if (k % 20 == 0) {
+        BaroSample b;
+        b.t_s = t;
+        b.pressure_pa = isa_pressure_pa(c.estimator.altitude.baro_origin_msl_m + 8.0);
+        fs->on_baro(b);
+      }
+      if (k % 200 == 0) {
+        GpsSample gps;
+        gps.t_s = t;
+        gps.p_W_m = Eigen::Vector3d(0.0, 0.0, 2.0);
+        fs->on_gps(gps);
+      }
+    }
+    return fs;
+  };
+  const auto on = run(true), off = run(false);
+  ASSERT_TRUE(on->nav_state().valid && on->altitude_started());
+  EXPECT_EQ(on->nav_state().p_W_m.z(), on->altitude().z_W_m);
+  EXPECT_EQ(on->nav_state().v_W_mps.z(), on->altitude().vz_W_mps);
+  EXPECT_GT(on->nav_state().p_W_m.z() - off->nav_state().p_W_m.z(), kApart_m);
+  EXPECT_NEAR(off->nav_state().p_W_m.z(), 2.0, 0.5) << "the GPS-only channel";
+  // The horizontal channels are the navigation filter's either way.
+  EXPECT_EQ(on->nav_state().p_W_m.head<2>(), off->nav_state().p_W_m.head<2>());
 }
 
 }  // namespace

@@ -66,6 +66,10 @@ struct NavigationParams {
   Eigen::Vector3d mag_field_W_uT{22.0, 2.0, -42.0};  ///< reference field in W (uT), from a
                                           ///< world magnetic model for the site
   double mag_k_yaw{0.5};                  ///< yaw correction gain (1/s)
+  bool height_from_altitude_fusion{true};  ///< the flight stack hands the controller the
+                                          ///< altitude fusion's height and climb rate (baro-
+                                          ///< anchored, seed 004) instead of this filter's
+                                          ///< GPS-only vertical channel
 
   void validate() const;
 };
@@ -94,6 +98,7 @@ void visit_fields(V& v, NavigationParams& p) {
   v("use_magnetometer", p.use_magnetometer);
   v("mag_field_W_uT", p.mag_field_W_uT);
   v("mag_k_yaw", p.mag_k_yaw);
+  v("height_from_altitude_fusion", p.height_from_altitude_fusion);
 }
 
 class Navigation {

@@ -75,7 +75,10 @@ class FlightStack {
   // State for the recorder (no truth in here).
   bool altitude_started() const { return fusion_started_; }  ///< fusion has an estimate
   AltitudeEstimate altitude() const { return fusion_.estimate(); }
-  NavState nav_state() const { return nav_.state(); }
+  // The navigation state the controller flies on: the navigation filter's, with the
+  // altitude fusion's height and climb rate once it has an estimate
+  // (navigation.height_from_altitude_fusion).
+  NavState nav_state() const;
   const ctl::LandingController& controller() const { return controller_; }
   const RejectedSamples& rejected() const { return screen_.rejected(); }
   const FlightConfig& config() const { return config_; }
