@@ -897,6 +897,25 @@ cv::Rect covering_rect(double x0, double y0, double x1, double y1, const cv::Rec
          full;
 }
 
+// The pixel bounds of points in the camera frame (all in front of it), projected through the
+// camera with its distortion.
+struct PixelBounds {
+  double x0{1e18}, y0{1e18}, x1{-1e18}, y1{-1e18};
+};
+PixelBounds projected_bounds(const std::vector<cv::Point3d>& pts_C, const CameraModel& cam) {
+  std::vector<cv::Point2d> img;
+  cv::projectPoints(pts_C, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), camera_matrix_cv(cam),
+                    dist_coeffs_cv(cam), img);
+  PixelBounds b;
+  for (const auto& q : img) {
+    b.x0 = std::min(b.x0, q.x);
+    b.y0 = std::min(b.y0, q.y);
+    b.x1 = std::max(b.x1, q.x);
+    b.y1 = std::max(b.y1, q.y);
+  }
+  return b;
+}
+
 // Where to search the code map (seed 001) in a frame whose pose `X_CP` is known (this frame's
 // rings, else the track): the projection of the square around the centre ring's inner circle
 // (the map and the white cells the lattice reads around it), grown by a slack for a tracked
@@ -918,16 +937,7 @@ std::optional<cv::Rect> code_region(const Eigen::Isometry3d& X_CP, const CameraM
       pts.emplace_back(q.x(), q.y(), q.z());
     }
   }
-  std::vector<cv::Point2d> img;
-  cv::projectPoints(pts, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), camera_matrix_cv(cam),
-                    dist_coeffs_cv(cam), img);
-  double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
-  for (const auto& q : img) {
-    x0 = std::min(x0, q.x);
-    y0 = std::min(y0, q.y);
-    x1 = std::max(x1, q.x);
-    y1 = std::max(y1, q.y);
-  }
+  const auto [x0, y0, x1, y1] = projected_bounds(pts, cam);
   if (!std::isfinite(x0 + y0 + x1 + y1)) return std::nullopt;
   const double grow = 0.25 * std::max(x1 - x0, y1 - y0) + 16 + 0.5 * p.code_threshold_block_px + 1;
   const cv::Rect r = covering_rect(x0 - grow, y0 - grow, x1 + grow, y1 + grow, full);
@@ -1080,17 +1090,7 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vect
       }
     }
     if (!pts.empty()) {
-      std::vector<cv::Point2d> img;
-      const cv::Mat Kcv = camera_matrix_cv(camera_);
-      const cv::Mat Dcv = dist_coeffs_cv(camera_);
-      cv::projectPoints(pts, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), Kcv, Dcv, img);
-      double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
-      for (const auto& q : img) {
-        x0 = std::min(x0, q.x);
-        y0 = std::min(y0, q.y);
-        x1 = std::max(x1, q.x);
-        y1 = std::max(y1, q.y);
-      }
+      const auto [x0, y0, x1, y1] = projected_bounds(pts, camera_);
       const double mx = params_.roi_margin * (x1 - x0), my = params_.roi_margin * (y1 - y0);
       const cv::Rect2d r(x0 - mx, y0 - my, x1 - x0 + 2 * mx, y1 - y0 + 2 * my);
       const cv::Rect roi = covering_rect(r.x, r.y, r.x + r.width, r.y + r.height, full);
@@ -1297,7 +1297,7 @@ std::string to_json(const RingDetection& d) {
   j["code"] = {{"searched", d.code_searched},
                {"region", d.code_region.area() > 0
                               ? Json::array({d.code_region.x, d.code_region.y,
-                                                       d.code_region.width, d.code_region.height})
+                                             d.code_region.width, d.code_region.height})
                               : Json(nullptr)},
                {"detected", d.code.detected},
                {"reason", d.code.reason},
