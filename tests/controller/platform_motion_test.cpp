@@ -41,7 +41,10 @@ void feed(PlatformTracker* tracker, const std::function<Eigen::Vector3d(double)>
     obs.t_s = t;
     obs.detected = obs.keyframe = true;
     obs.X_CP = (X_WB * mount.X_BC()).inverse() * X_WP;
-    obs.X_CP.translation() += noise_m * Eigen::Vector3d(n01(rng), n01(rng), n01(rng));
+    // z drawn first, x last: the order GCC evaluated the former Vector3d(n01(rng), ...)
+    // arguments in (unspecified in C++; clang differs), the same noise with either compiler.
+    const double nz = n01(rng), ny = n01(rng), nx = n01(rng);
+    obs.X_CP.translation() += noise_m * Eigen::Vector3d(nx, ny, nz);
     tracker->add_observation(obs);
   }
 }

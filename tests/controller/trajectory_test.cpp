@@ -87,7 +87,10 @@ struct Stream {
     obs.keyframe = true;
     obs.X_CP = (X_WB * mount.X_BC()).inverse() * X_WP;
     std::normal_distribution<double> n(0.0, noise_m);
-    obs.X_CP.translation() += Eigen::Vector3d(n(rng), n(rng), n(rng));
+    // z drawn first, x last: the order GCC evaluated the former Vector3d(n(rng), ...)
+    // arguments in (unspecified in C++; clang differs), the same noise with either compiler.
+    const double nz = n(rng), ny = n(rng), nx = n(rng);
+    obs.X_CP.translation() += Eigen::Vector3d(nx, ny, nz);
     tracker.add_observation(obs);
   }
 };
@@ -170,7 +173,10 @@ TEST(PlatformTracker, NavigationPositionStepsDoNotReachVelocityOrRelativeVector)
   Eigen::Vector3d nav_offset = Eigen::Vector3d::Zero();
   for (int i = 0; i <= 1000; ++i) {  // 4 s at 250 Hz, a camera frame every 8th step
     const double t = i * 0.004;
-    if (i % 50 == 0) nav_offset += Eigen::Vector3d(step(rng), step(rng), 0.0);  // 5 Hz
+    if (i % 50 == 0) {  // 5 Hz; y drawn first, as GCC evaluated Vector3d(step(rng), step(rng), 0)
+      const double dy = step(rng), dx = step(rng);
+      nav_offset += Eigen::Vector3d(dx, dy, 0.0);
+    }
     const Eigen::Vector3d p_WB = Eigen::Vector3d(-1.0, 0.0, 5.0) + v_B * t;
     NavState nav;
     nav.t_s = t;

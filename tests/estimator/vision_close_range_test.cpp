@@ -53,7 +53,12 @@ std::vector<CloseView> close_views(unsigned seed, int per_config) {
       for (int k = 0; k < per_config; ++k) {
         const double r = kMaxOffsetM * std::sqrt(U(rng)), ang = 2 * M_PI * U(rng);
         const Eigen::Vector2d aim(r * std::cos(ang), r * std::sin(ang));
-        out.push_back({h, tilt, test::look_at_pose(h, tilt, 360 * U(rng), 360 * U(rng), aim)});
+        // Drawn one by one, last argument first: the order in which GCC evaluated the former
+        // single call's arguments (C++ leaves it unspecified; clang goes the other way), so the
+        // views stay the ones these checks were written against, with either compiler.
+        const double azimuth = 360 * U(rng);
+        const double yaw = 360 * U(rng);
+        out.push_back({h, tilt, test::look_at_pose(h, tilt, yaw, azimuth, aim)});
       }
     }
   }
@@ -128,7 +133,11 @@ TEST(VisionCloseRange, CodeUnderTheVehicleShadowIsReadAgainstTheLocalWhite) {
       SCOPED_TRACE("height " + std::to_string(h) + " view " + std::to_string(k));
       const double r = 0.1 * std::sqrt(U(rng)), ang = 2 * M_PI * U(rng);
       const Eigen::Vector2d aim(r * std::cos(ang), r * std::sin(ang));
-      const Eigen::Isometry3d X = test::look_at_pose(h, 10 * U(rng), 360 * U(rng), 360 * U(rng), aim);
+      // Drawn last argument first, as in close_views() (see there).
+      const double azimuth = 360 * U(rng);
+      const double yaw = 360 * U(rng);
+      const double tilt = 10 * U(rng);
+      const Eigen::Isometry3d X = test::look_at_pose(h, tilt, yaw, azimuth, aim);
       test::SynthOptions o;
       o.noise_sigma = kNoiseGrey;
       o.seed = 300 + n;
@@ -202,7 +211,10 @@ TEST(VisionCloseRange, CodeSearchedAroundThePoseMatchesTheTruth) {
       for (const double tilt : {0.0, 20.0}) {
         if (cam.k1 != 0.0 && (h < 1.6 || tilt > 0.0)) continue;
         const double r = kMaxOffsetM * std::sqrt(U(rng)), ang = 2 * M_PI * U(rng);
-        const auto X = test::look_at_pose(h, tilt, 360 * U(rng), 360 * U(rng),
+        // Drawn last argument first, as in close_views() (see there).
+        const double azimuth = 360 * U(rng);
+        const double yaw = 360 * U(rng);
+        const auto X = test::look_at_pose(h, tilt, yaw, azimuth,
                                           Eigen::Vector2d(r * std::cos(ang), r * std::sin(ang)));
         SCOPED_TRACE("height " + std::to_string(h) + " tilt " + std::to_string(tilt) + " k1 " +
                      std::to_string(cam.k1));

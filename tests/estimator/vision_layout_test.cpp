@@ -49,8 +49,14 @@ Outcome run_views(int n, double sigma, double bias, int drop, int missing, int d
   std::normal_distribution<double> N(0.0, 1.0);
   Outcome o;
   for (int v = 0; v < n; ++v) {
-    const Eigen::Isometry3d X =
-        test::look_at_pose(8.0 + 8.0 * U(rng), 65.0 * U(rng), 360.0 * U(rng), 360.0 * U(rng));
+    // Drawn one by one, last argument first: the order in which GCC evaluated the former
+    // single call's arguments (C++ leaves it unspecified; clang goes the other way), so the
+    // views stay the ones these checks were written against, with either compiler.
+    const double azimuth = 360.0 * U(rng);
+    const double yaw = 360.0 * U(rng);
+    const double tilt = 65.0 * U(rng);
+    const double altitude = 8.0 + 8.0 * U(rng);
+    const Eigen::Isometry3d X = test::look_at_pose(altitude, tilt, yaw, azimuth);
     std::vector<LayoutCandidate> c = project_sets(g, X, cam);
     EXPECT_EQ(c.size(), g.rings.size());
     if (c.size() != g.rings.size()) return o;
@@ -73,8 +79,9 @@ Outcome run_views(int n, double sigma, double bias, int drop, int missing, int d
     const double px_per_m = c[0].outer.a / g.rings[0].outer_radius_m;
     for (int k = 0; k < decoys;) {
       LayoutCandidate d;
-      d.outer.centre =
-          c[0].centre + px_per_m * Eigen::Vector2d(5.0 * (U(rng) - 0.5), 5.0 * (U(rng) - 0.5));
+      const double dy = 5.0 * (U(rng) - 0.5);  // y first, as above
+      const double dx = 5.0 * (U(rng) - 0.5);
+      d.outer.centre = c[0].centre + px_per_m * Eigen::Vector2d(dx, dy);
       bool on_rings = false;
       for (const auto& x : c) on_rings |= (x.centre - d.outer.centre).norm() < 0.4 * px_per_m;
       if (on_rings) continue;

@@ -156,9 +156,16 @@ void SyntheticVision::update(double t_s, const Eigen::Isometry3d& X_WB,
   if (ok) {
     std::normal_distribution<double> n01(0.0, 1.0);
     const double sp = p_.pos_noise_floor_m + p_.pos_noise_per_m * pc.norm();
-    const Eigen::Vector3d dp(sp * n01(rng_), sp * n01(rng_), sp * n01(rng_));
+    // z drawn first, x last: the order GCC evaluated the former Vector3d(n01(rng_), ...)
+    // arguments in (C++ leaves it unspecified; clang goes the other way), so the noise is the
+    // same with either compiler.
+    auto draw_xyz = [&](double s) {
+      const double z = n01(rng_), y = n01(rng_), x = n01(rng_);
+      return Eigen::Vector3d(s * x, s * y, s * z);
+    };
+    const Eigen::Vector3d dp = draw_xyz(sp);
     const double sr = p_.rot_noise_deg * kDeg;
-    const Eigen::Vector3d dr(sr * n01(rng_), sr * n01(rng_), sr * n01(rng_));
+    const Eigen::Vector3d dr = draw_xyz(sr);
     obs.detected = true;
     obs.keyframe = true;
     obs.rings_identified = 7;
@@ -208,7 +215,8 @@ LandingRunResult run_landing(const LandingRunConfig& cfg) {
   const NavNoiseParams& nn = cfg.nav_noise;
   Eigen::Vector3d pos_bias = Eigen::Vector3d::Zero();
   auto white3 = [&](double sigma) {
-    return Eigen::Vector3d(sigma * n01(nav_rng), sigma * n01(nav_rng), sigma * n01(nav_rng));
+    const double z = n01(nav_rng), y = n01(nav_rng), x = n01(nav_rng);  // z first, as draw_xyz
+    return Eigen::Vector3d(sigma * x, sigma * y, sigma * z);
   };
   const int steps = static_cast<int>(cfg.max_time_s / cfg.physics_dt_s);
   for (int i = 0; i < steps; ++i) {
