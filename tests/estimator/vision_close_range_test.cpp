@@ -250,6 +250,62 @@ TEST(VisionCloseRange, CodeSearchedAroundThePoseMatchesTheTruth) {
   EXPECT_GE(with_region, with_whole);
 }
 
+// Given views from 1.4 to 2.0 m (tilts 0 and 20 deg, random yaw and aim, noise) where the
+// rings give this frame's pose, when the code's grid line families are taken from that
+// pose's vanishing points (code_lattice_from_pose, the default) instead of the search area's
+// dominant side direction, then every code pose is within the truth's tolerances and the
+// code is read in at least as many views; and a prior 30 deg off in yaw (a track gone
+// stale) never gives a code pose outside those tolerances.
+TEST(VisionCloseRange, CodeLatticeFromThePoseMatchesTheTruth) {
+  const TargetGeometry& g = test::default_target();
+  std::mt19937 rng(31);
+  std::uniform_real_distribution<double> U(0, 1);
+  VisionParams rings_only;
+  rings_only.code_enabled = false;
+  int views = 0, with_prior = 0, without = 0, wrong_prior_reads = 0;
+  for (const double h : {1.4, 1.7, 2.0}) {
+    for (const double tilt : {0.0, 20.0}) {
+      for (int k = 0; k < 2; ++k) {
+        const double r = kMaxOffsetM * std::sqrt(U(rng)), ang = 2 * M_PI * U(rng);
+        const double azimuth = 360 * U(rng);
+        const double yaw = 360 * U(rng);
+        const auto X = test::look_at_pose(h, tilt, yaw, azimuth,
+                                          Eigen::Vector2d(r * std::cos(ang), r * std::sin(ang)));
+        SCOPED_TRACE("height " + std::to_string(h) + " tilt " + std::to_string(tilt) + " view " +
+                     std::to_string(k));
+        test::SynthOptions o;
+        o.noise_sigma = kNoiseGrey;
+        o.seed = 400 + views++;
+        const cv::Mat img = test::render_view(g, kCam, X, o);
+        cv::Mat grey;
+        cv::cvtColor(img, grey, cv::COLOR_BGR2GRAY);
+        const RingDetection d = detect_ring_target(img, kCam, g, rings_only);
+        ASSERT_TRUE(d.detected) << d.reason;
+        const CodeDetection a = detect_code_pattern(grey, kCam, g, VisionParams{}, &d.X_CP);
+        const CodeDetection b = detect_code_pattern(grey, kCam, g, VisionParams{});
+        const Eigen::Isometry3d stale =
+            d.X_CP * Eigen::AngleAxisd(30 * M_PI / 180, Eigen::Vector3d::UnitZ());
+        const CodeDetection c = detect_code_pattern(grey, kCam, g, VisionParams{}, &stale);
+        std::printf("%.1f m, tilt %.0f: with the pose's lines %d (%s), without %d (%s), stale %d\n", h,
+                    tilt, a.detected, a.reason.c_str(), b.detected, b.reason.c_str(), c.detected);
+        without += b.detected ? 1 : 0;
+        wrong_prior_reads += c.detected ? 1 : 0;
+        const double z = X.translation().norm();
+        for (const CodeDetection* e : {&a, &c}) {
+          if (!e->detected) continue;
+          EXPECT_LT(test::position_error_m(e->X_CP, X), kPosTolPerMetre * z);
+          EXPECT_LT(test::rotation_error_rad(e->X_CP, X), kRotTolRad * std::max(1.0, z * z / 1.44));
+        }
+        with_prior += a.detected ? 1 : 0;
+      }
+    }
+  }
+  std::printf("code read in %d of %d views with the pose's grid lines, %d without; %d with a stale prior\n",
+              with_prior, views, without, wrong_prior_reads);
+  EXPECT_GE(with_prior, without);
+  EXPECT_GT(with_prior, views / 2);
+}
+
 // Given a track with the platform at one side of the view (1.8 m, aimed 0.9 m off its
 // centre), when the next frame is 0.3 m above the platform with its code on the other side
 // of the view (no ring set whole), then the code's region from the track misses most of the

@@ -31,6 +31,14 @@ constexpr double kMinCornerAngleDeg = 40.0, kMaxCornerAngleDeg = 140.0;
 // family converge towards their vanishing point by up to ~20 deg across the frame at 20 deg
 // tilt.
 constexpr double kFamilyTolDeg = 30.0;
+// With a prior pose (the rings' of this frame, or the track's) each side is compared with
+// the direction its family's predicted vanishing point gives at the side's own midpoint, so
+// the convergence no longer needs room: a fresh ring pose is within ~0.1 deg, a frame-old
+// track within a degree or two at the vehicle's turn rates. The polygon sides run along
+// several cells, so nearly all lie within a few degrees of their line: on the 649 frames of
+// a default landing 4, 6, 8 and 10 deg read the same frames, 12 deg fewer, 20 and 30 deg
+// (clutter: ring edges, the rim) fewer still. 8 deg leaves the track its margin.
+constexpr double kPriorFamilyTolDeg = 8.0;
 // A segment is consistent with its family's vanishing point when its end points lie within
 // this of the line through its midpoint and the vanishing point (px).
 constexpr double kVpInlierPx = 2.0;
@@ -477,9 +485,11 @@ std::vector<ObservedCell> read_cells_local_white(const std::vector<CellRead>& re
 }
 
 // Steps 1-5 on `grey` (the camera's whole image, or a region of it with `cam` shifted to
-// it) with the adaptive threshold's block `block` px.
+// it) with the adaptive threshold's block `block` px; `X_CP_prior`, when given, predicts the
+// grid's two line families (step 2).
 CodeDetection detect_code_impl(const cv::Mat& grey, const CameraModel& cam, const TargetGeometry& g,
-                               const VisionParams& p, int block) {
+                               const VisionParams& p, int block,
+                               const Eigen::Isometry3d* X_CP_prior = nullptr) {
   CodeDetection d;
   auto fail = [&](std::string why) {
     d.detected = false;
@@ -537,23 +547,44 @@ CodeDetection detect_code_impl(const cv::Mat& grey, const CameraModel& cam, cons
     }
   }
   // ---- 2. two line families, vanishing points, affine rectification, lattice labels ----
-  double C4 = 0, S4 = 0;
-  for (const auto& s : segs) {
-    C4 += s.len * std::cos(4 * s.theta);
-    S4 += s.len * std::sin(4 * s.theta);
-  }
-  const double th0 = 0.25 * std::atan2(S4, C4);
-  std::vector<Segment> famA, famB;
-  const double tol = kFamilyTolDeg * M_PI / 180;
-  for (const auto& s : segs) {
-    if (std::abs(std::remainder(s.theta - th0, M_PI)) < tol) {
-      famA.push_back(s);
-    } else if (std::abs(std::remainder(s.theta - th0 - 0.5 * M_PI, M_PI)) < tol) {
-      famB.push_back(s);
-    }
-  }
   const Eigen::Vector2d cpp(cam.cx_px, cam.cy_px);
   const double f = cam.fx_px;
+  std::vector<Segment> famA, famB;
+  if (X_CP_prior != nullptr) {
+    // The map's rows and columns run along P's x and y axes: their vanishing points are the
+    // camera-frame directions of those axes. A side joins the family whose line through the
+    // side's midpoint towards that point it follows best, within kPriorFamilyTolDeg.
+    const Eigen::Matrix3d R = X_CP_prior->linear();
+    const Eigen::Vector3d vpA = R.col(0), vpB = R.col(1);
+    const double sin_tol = std::sin(kPriorFamilyTolDeg * M_PI / 180);
+    auto off = [&](const Segment& s, const Eigen::Vector3d& v) {
+      const Eigen::Vector2d m = (0.5 * (s.p0 + s.p1) - cpp) / f;
+      const Eigen::Vector2d dir(v.x() - m.x() * v.z(), v.y() - m.y() * v.z());
+      const Eigen::Vector2d sd = s.p1 - s.p0;
+      const double nn = dir.norm() * sd.norm();
+      return nn > 0 ? std::abs(dir.x() * sd.y() - dir.y() * sd.x()) / nn : 1.0;
+    };
+    for (const auto& s : segs) {
+      const double a = off(s, vpA), b = off(s, vpB);
+      if (std::min(a, b) >= sin_tol) continue;
+      (a < b ? famA : famB).push_back(s);
+    }
+  } else {
+    double C4 = 0, S4 = 0;
+    for (const auto& s : segs) {
+      C4 += s.len * std::cos(4 * s.theta);
+      S4 += s.len * std::sin(4 * s.theta);
+    }
+    const double th0 = 0.25 * std::atan2(S4, C4);
+    const double tol = kFamilyTolDeg * M_PI / 180;
+    for (const auto& s : segs) {
+      if (std::abs(std::remainder(s.theta - th0, M_PI)) < tol) {
+        famA.push_back(s);
+      } else if (std::abs(std::remainder(s.theta - th0 - 0.5 * M_PI, M_PI)) < tol) {
+        famB.push_back(s);
+      }
+    }
+  }
   const auto vA = vanishing_point(famA, cpp, f);
   const auto vB = vanishing_point(famB, cpp, f);
   if (!vA || !vB) return fail("no two grid line families");
@@ -979,13 +1010,14 @@ int threshold_block(const cv::Mat& frame, const VisionParams& p) {
 }  // namespace
 
 CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
-                                  const TargetGeometry& g, const VisionParams& p) {
-  return detect_code_impl(grey, cam, g, p, threshold_block(grey, p));
+                                  const TargetGeometry& g, const VisionParams& p,
+                                  const Eigen::Isometry3d* X_CP_prior) {
+  return detect_code_impl(grey, cam, g, p, threshold_block(grey, p), X_CP_prior);
 }
 
 CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
                                   const TargetGeometry& g, const VisionParams& p,
-                                  const cv::Rect& region) {
+                                  const cv::Rect& region, const Eigen::Isometry3d* X_CP_prior) {
   const cv::Rect r = region & cv::Rect(0, 0, grey.cols, grey.rows);
   if (grey.empty() || r.width < 16 || r.height < 16) {
     CodeDetection d;
@@ -995,7 +1027,7 @@ CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
   // A copy: no filter of the search reads pixels outside the region. The block is the whole
   // frame's, so pixels at least half a block inside the region threshold as on the frame.
   CodeDetection d = detect_code_impl(grey(r).clone(), vision_internal::zoomed_camera(cam, r, 1), g,
-                                     p, threshold_block(grey, p));
+                                     p, threshold_block(grey, p), X_CP_prior);
   for (auto& c : d.corners_px) c += Eigen::Vector2d(r.x, r.y);
   return d;
 }

@@ -1215,16 +1215,23 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vect
       const auto region = ref != nullptr && params_.code_search_region
                               ? code_region(*ref, camera_, target_, params_, full)
                               : std::nullopt;
+      const Eigen::Isometry3d* prior = params_.code_lattice_from_pose ? ref : nullptr;
       if (region) {
         if (!grey_full) grey_region(image, *region, grey);
-        d.code = detect_code_pattern(grey, camera_, target_, params_, *region);
+        d.code = detect_code_pattern(grey, camera_, target_, params_, *region, prior);
         d.code_region = *region;
       }
-      // A region from the track (a frame old) may have missed the map: the whole frame then.
+      // A region from the track (a frame old) may have missed the map: the whole frame then,
+      // without the track's prediction of the grid lines (it may be what missed). Without a
+      // region (close, the map fills the view), the whole frame with the prediction, and
+      // without it too when it came from the track and missed.
       if (!region || (!d.code.detected && !d.detected)) {
         whole_grey();
-        d.code = detect_code_pattern(grey, camera_, target_, params_);
+        d.code = detect_code_pattern(grey, camera_, target_, params_, region ? nullptr : prior);
         d.code_region = cv::Rect();
+        if (!d.code.detected && !region && prior != nullptr && !d.detected) {
+          d.code = detect_code_pattern(grey, camera_, target_, params_);
+        }
       }
     }
   }

@@ -77,14 +77,20 @@ struct CodeDetection {
 };
 
 // Runs steps 1-5 on an 8-bit grey frame of `camera`'s size. Never throws for image content.
+// `X_CP_prior` (optional: a pose from the rings or a track) predicts the directions of the
+// map's grid lines, so that straight clutter is not taken for them.
 CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& camera,
-                                  const TargetGeometry& target, const VisionParams& p);
+                                  const TargetGeometry& target, const VisionParams& p,
+                                  const Eigen::Isometry3d* X_CP_prior = nullptr);
 
 // The same, searching only `region` of the frame (clipped to it): for a frame whose pose is
 // known, around the code map's projection. The threshold is the whole frame's wherever its
-// block lies inside the region; corners_px are in the frame's pixels.
+// block lies inside the region; corners_px are in the frame's pixels. `X_CP_prior` (that
+// pose, optional) predicts the directions of the map's grid lines, so that straight clutter
+// in the region is not taken for them.
 CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& camera,
                                   const TargetGeometry& target, const VisionParams& p,
-                                  const cv::Rect& region);
+                                  const cv::Rect& region,
+                                  const Eigen::Isometry3d* X_CP_prior = nullptr);
 
 }  // namespace lander

@@ -151,6 +151,9 @@ struct VisionParams {
   bool code_search_region{true};     ///< with a pose (this frame's rings or the track), search
                                      ///< the code only around its projection (else, or when a
                                      ///< tracked region misses it, the whole frame)
+  bool code_lattice_from_pose{true}; ///< with that pose, take the grid's two line families
+                                     ///< from its predicted vanishing points (else from the
+                                     ///< area's dominant side direction)
 
   // ---- fewer-ring poses and combination ----
   bool centre_ring_pose{true};       ///< pose from the central set (both circles) when fewer
@@ -233,6 +236,7 @@ void visit_fields(V& v, VisionParams& p) {
   v("code_max_reproj_px", p.code_max_reproj_px);
   v("code_local_white", p.code_local_white);
   v("code_search_region", p.code_search_region);
+  v("code_lattice_from_pose", p.code_lattice_from_pose);
   v("centre_ring_pose", p.centre_ring_pose);
   v("tracked_yaw_sigma_rad", p.tracked_yaw_sigma_rad);
   v("tracked_max_jump_m", p.tracked_max_jump_m);
