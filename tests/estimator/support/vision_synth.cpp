@@ -200,24 +200,47 @@ cv::Mat render_view(const TargetGeometry& g, const CameraModel& cam, const Eigen
     Kp(1, 2) += pad;
     const cv::Mat ideal =
         render_ideal_ss(g, Kp, cv::Size(size.width + 2 * pad, size.height + 2 * pad), X_CP, opt);
-    std::vector<cv::Point2f> src;
-    src.reserve(static_cast<std::size_t>(size.area()) * S * S);
-    for (int y = 0; y < size.height * S; ++y) {
-      for (int x = 0; x < size.width * S; ++x) {
-        src.emplace_back((x + 0.5f) / S - 0.5f, (y + 0.5f) / S - 0.5f);
-      }
-    }
+    // The maps depend on the camera alone: the last camera's are kept (a test renders many
+    // views through one distorted camera; undistortPoints on every supersample costs ~2.5 s).
     const cv::Mat Kcv = camera_matrix_cv(cam);
     const cv::Mat Dcv = dist_coeffs_cv(cam);
-    std::vector<cv::Point2f> und;
-    cv::undistortPoints(src, und, Kcv, Dcv, cv::noArray(), Kcv,
-                        cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 50, 1e-9));
-    cv::Mat mapx(size.height * S, size.width * S, CV_32F), mapy(mapx.size(), CV_32F);
-    for (int y = 0, i = 0; y < mapx.rows; ++y) {
-      for (int x = 0; x < mapx.cols; ++x, ++i) {
-        mapx.at<float>(y, x) = S * (und[i].x + pad + 0.5f) - 0.5f;
-        mapy.at<float>(y, x) = S * (und[i].y + pad + 0.5f) - 0.5f;
+    std::vector<double> key(Kcv.begin<double>(), Kcv.end<double>());
+    key.insert(key.end(), Dcv.begin<double>(), Dcv.end<double>());
+    key.insert(key.end(), {double(size.width), double(size.height), double(S), double(pad)});
+    static std::mutex cache_mutex;
+    static std::vector<double> cached_key;
+    static cv::Mat cached_mapx, cached_mapy;
+    cv::Mat mapx, mapy;
+    {
+      std::lock_guard<std::mutex> lock(cache_mutex);
+      if (key == cached_key) {
+        mapx = cached_mapx;
+        mapy = cached_mapy;
       }
+    }
+    if (mapx.empty()) {
+      std::vector<cv::Point2f> src;
+      src.reserve(static_cast<std::size_t>(size.area()) * S * S);
+      for (int y = 0; y < size.height * S; ++y) {
+        for (int x = 0; x < size.width * S; ++x) {
+          src.emplace_back((x + 0.5f) / S - 0.5f, (y + 0.5f) / S - 0.5f);
+        }
+      }
+      std::vector<cv::Point2f> und;
+      cv::undistortPoints(src, und, Kcv, Dcv, cv::noArray(), Kcv,
+                          cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 50, 1e-9));
+      mapx.create(size.height * S, size.width * S, CV_32F);
+      mapy.create(mapx.size(), CV_32F);
+      for (int y = 0, i = 0; y < mapx.rows; ++y) {
+        for (int x = 0; x < mapx.cols; ++x, ++i) {
+          mapx.at<float>(y, x) = S * (und[i].x + pad + 0.5f) - 0.5f;
+          mapy.at<float>(y, x) = S * (und[i].y + pad + 0.5f) - 0.5f;
+        }
+      }
+      std::lock_guard<std::mutex> lock(cache_mutex);
+      cached_key = key;
+      cached_mapx = mapx;
+      cached_mapy = mapy;
     }
     cv::remap(ideal, ss, mapx, mapy, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
               cv::Scalar(opt.ground_grey * 255.0));
