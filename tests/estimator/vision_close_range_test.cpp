@@ -44,21 +44,27 @@ struct CloseView {
   Eigen::Isometry3d X;
 };
 
+// A view from height h and tilt, aimed at a random point within max_offset_m of the
+// platform centre, with random yaw and azimuth. The four values are drawn one by one in the
+// order GCC evaluated the former single look_at_pose(h, tilt, 360 * U(rng), 360 * U(rng),
+// aim) call's arguments (last first; C++ leaves the order unspecified and clang goes the
+// other way), so the views stay the ones these checks were written against, with either
+// compiler.
+Eigen::Isometry3d random_close_pose(std::mt19937& rng, double h, double tilt, double max_offset_m) {
+  std::uniform_real_distribution<double> U(0, 1);
+  const double r = max_offset_m * std::sqrt(U(rng)), ang = 2 * M_PI * U(rng);
+  const double azimuth = 360 * U(rng);
+  const double yaw = 360 * U(rng);
+  return test::look_at_pose(h, tilt, yaw, azimuth, Eigen::Vector2d(r * std::cos(ang), r * std::sin(ang)));
+}
+
 std::vector<CloseView> close_views(unsigned seed, int per_config) {
   std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> U(0, 1);
   std::vector<CloseView> out;
   for (double h : kHeights) {
     for (double tilt : kTilts) {
       for (int k = 0; k < per_config; ++k) {
-        const double r = kMaxOffsetM * std::sqrt(U(rng)), ang = 2 * M_PI * U(rng);
-        const Eigen::Vector2d aim(r * std::cos(ang), r * std::sin(ang));
-        // Drawn one by one, last argument first: the order in which GCC evaluated the former
-        // single call's arguments (C++ leaves it unspecified; clang goes the other way), so the
-        // views stay the ones these checks were written against, with either compiler.
-        const double azimuth = 360 * U(rng);
-        const double yaw = 360 * U(rng);
-        out.push_back({h, tilt, test::look_at_pose(h, tilt, yaw, azimuth, aim)});
+        out.push_back({h, tilt, random_close_pose(rng, h, tilt, kMaxOffsetM)});
       }
     }
   }
@@ -203,19 +209,13 @@ TEST(VisionCloseRange, CodeSearchedAroundThePoseMatchesTheTruth) {
   VisionParams whole;
   whole.code_search_region = false;
   std::mt19937 rng(29);
-  std::uniform_real_distribution<double> U(0, 1);
   int views = 0, with_region = 0, with_whole = 0;
   // Rendering through the distortion is slow: two views with it.
   for (const CameraModel& cam : {kCam, distorted}) {
     for (const double h : {0.8, 1.6, 2.0}) {
       for (const double tilt : {0.0, 20.0}) {
         if (cam.k1 != 0.0 && (h < 1.6 || tilt > 0.0)) continue;
-        const double r = kMaxOffsetM * std::sqrt(U(rng)), ang = 2 * M_PI * U(rng);
-        // Drawn last argument first, as in close_views() (see there).
-        const double azimuth = 360 * U(rng);
-        const double yaw = 360 * U(rng);
-        const auto X = test::look_at_pose(h, tilt, yaw, azimuth,
-                                          Eigen::Vector2d(r * std::cos(ang), r * std::sin(ang)));
+        const auto X = random_close_pose(rng, h, tilt, kMaxOffsetM);
         SCOPED_TRACE("height " + std::to_string(h) + " tilt " + std::to_string(tilt) + " k1 " +
                      std::to_string(cam.k1));
         test::SynthOptions o;
@@ -259,18 +259,13 @@ TEST(VisionCloseRange, CodeSearchedAroundThePoseMatchesTheTruth) {
 TEST(VisionCloseRange, CodeLatticeFromThePoseMatchesTheTruth) {
   const TargetGeometry& g = test::default_target();
   std::mt19937 rng(31);
-  std::uniform_real_distribution<double> U(0, 1);
   VisionParams rings_only;
   rings_only.code_enabled = false;
   int views = 0, with_prior = 0, without = 0, wrong_prior_reads = 0;
   for (const double h : {1.4, 1.7, 2.0}) {
     for (const double tilt : {0.0, 20.0}) {
       for (int k = 0; k < 2; ++k) {
-        const double r = kMaxOffsetM * std::sqrt(U(rng)), ang = 2 * M_PI * U(rng);
-        const double azimuth = 360 * U(rng);
-        const double yaw = 360 * U(rng);
-        const auto X = test::look_at_pose(h, tilt, yaw, azimuth,
-                                          Eigen::Vector2d(r * std::cos(ang), r * std::sin(ang)));
+        const auto X = random_close_pose(rng, h, tilt, kMaxOffsetM);
         SCOPED_TRACE("height " + std::to_string(h) + " tilt " + std::to_string(tilt) + " view " +
                      std::to_string(k));
         test::SynthOptions o;

@@ -15,6 +15,14 @@ Eigen::Quaterniond exp_quat(const Eigen::Vector3d& phi) {
   if (a < 1e-12) return Eigen::Quaterniond(1, 0.5 * phi.x(), 0.5 * phi.y(), 0.5 * phi.z());
   return Eigen::Quaterniond(Eigen::AngleAxisd(a, phi / a));
 }
+
+// Three normal draws times `sigma` as (x, y, z), z drawn first and x last: the order GCC
+// evaluated the former Vector3d(n01(rng), n01(rng), n01(rng)) arguments in (C++ leaves it
+// unspecified; clang goes the other way), so the noise is the same with either compiler.
+Eigen::Vector3d draw_xyz(std::normal_distribution<double>& n01, std::mt19937& rng, double sigma) {
+  const double z = n01(rng), y = n01(rng), x = n01(rng);
+  return Eigen::Vector3d(sigma * x, sigma * y, sigma * z);
+}
 }  // namespace
 
 HexModel::HexModel(const HexModelParams& p) : p_(p) { reset_hover(Eigen::Vector3d::Zero()); }
@@ -156,16 +164,9 @@ void SyntheticVision::update(double t_s, const Eigen::Isometry3d& X_WB,
   if (ok) {
     std::normal_distribution<double> n01(0.0, 1.0);
     const double sp = p_.pos_noise_floor_m + p_.pos_noise_per_m * pc.norm();
-    // z drawn first, x last: the order GCC evaluated the former Vector3d(n01(rng_), ...)
-    // arguments in (C++ leaves it unspecified; clang goes the other way), so the noise is the
-    // same with either compiler.
-    auto draw_xyz = [&](double s) {
-      const double z = n01(rng_), y = n01(rng_), x = n01(rng_);
-      return Eigen::Vector3d(s * x, s * y, s * z);
-    };
-    const Eigen::Vector3d dp = draw_xyz(sp);
+    const Eigen::Vector3d dp = draw_xyz(n01, rng_, sp);
     const double sr = p_.rot_noise_deg * kDeg;
-    const Eigen::Vector3d dr = draw_xyz(sr);
+    const Eigen::Vector3d dr = draw_xyz(n01, rng_, sr);
     obs.detected = true;
     obs.keyframe = true;
     obs.rings_identified = 7;
@@ -214,10 +215,7 @@ LandingRunResult run_landing(const LandingRunConfig& cfg) {
   std::normal_distribution<double> n01(0.0, 1.0);
   const NavNoiseParams& nn = cfg.nav_noise;
   Eigen::Vector3d pos_bias = Eigen::Vector3d::Zero();
-  auto white3 = [&](double sigma) {
-    const double z = n01(nav_rng), y = n01(nav_rng), x = n01(nav_rng);  // z first, as draw_xyz
-    return Eigen::Vector3d(sigma * x, sigma * y, sigma * z);
-  };
+  auto white3 = [&](double sigma) { return draw_xyz(n01, nav_rng, sigma); };
   const int steps = static_cast<int>(cfg.max_time_s / cfg.physics_dt_s);
   for (int i = 0; i < steps; ++i) {
     const double t = i * cfg.physics_dt_s;

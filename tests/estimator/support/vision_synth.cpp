@@ -206,7 +206,7 @@ cv::Mat render_view(const TargetGeometry& g, const CameraModel& cam, const Eigen
     const cv::Mat Dcv = dist_coeffs_cv(cam);
     std::vector<double> key(Kcv.begin<double>(), Kcv.end<double>());
     key.insert(key.end(), Dcv.begin<double>(), Dcv.end<double>());
-    key.insert(key.end(), {double(size.width), double(size.height), double(S), double(pad)});
+    key.insert(key.end(), {double(size.width), double(size.height), double(S)});  // pad: of size
     static std::mutex cache_mutex;
     static std::vector<double> cached_key;
     static cv::Mat cached_mapx, cached_mapy;
