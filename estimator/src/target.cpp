@@ -221,25 +221,72 @@ cv::Mat render_target_texture(const TargetGeometry& g) {
   const double code_half = 0.5 * g.code.side_m();
   const cv::Vec3d bg(g.background_rgb[2], g.background_rgb[1], g.background_rgb[0]);
   // Rows are independent: drawn in parallel, the same bytes as in one thread.
+  // A ring can cover a pixel only within its bounding square (half side outer radius + h):
+  // each row keeps the rings whose square it crosses, each with the columns of that square
+  // (two columns of margin; the exact per-pixel test below decides), so a pixel visits only
+  // the rings that can reach it, in the rings' order (the same blend, the same bytes).
+  struct Span {
+    const RingSet* ring;
+    int u0, u1;
+  };
+  const double s_px = g.px_per_m();
+  cv::Vec3b bg_px;
+  for (int ch = 0; ch < 3; ++ch) {
+    bg_px[ch] = cv::saturate_cast<std::uint8_t>(std::lround(bg[ch] * 255.0));
+  }
   cv::parallel_for_(cv::Range(0, N), [&](const cv::Range& rows) {
+    std::vector<Span> spans;
+    spans.reserve(g.rings.size());
     for (int v = rows.start; v < rows.end; ++v) {
       auto* row = img.ptr<cv::Vec3b>(v);
+      const double p_y = texture_to_platform(g, 0, v).y();
+      spans.clear();
+      for (const auto& ring : g.rings) {
+        if (std::abs(p_y - ring.centre_P_m.y()) > ring.outer_radius_m + h) continue;
+        const double reach = ring.outer_radius_m + h;
+        const double ua = (ring.centre_P_m.x() - reach + 0.5 * g.platform_size_m.x()) * s_px - 0.5;
+        const double ub = (ring.centre_P_m.x() + reach + 0.5 * g.platform_size_m.x()) * s_px - 0.5;
+        const int u0 = std::max(0, static_cast<int>(std::floor(ua)) - 2);
+        const int u1 = std::min(N - 1, static_cast<int>(std::ceil(ub)) + 2);
+        if (u0 <= u1) spans.push_back({&ring, u0, u1});
+      }
+      // The code square's columns on this row (the same margin); elsewhere, with no ring's
+      // span either, a pixel is the background.
+      int code_u0 = N, code_u1 = -1;
+      if (g.code.cells > 0 && std::abs(p_y) < code_half + h) {
+        const double reach = code_half + h;
+        code_u0 = std::max(0, static_cast<int>(std::floor((0.5 * g.platform_size_m.x() - reach) * s_px - 0.5)) - 2);
+        code_u1 = std::min(N - 1, static_cast<int>(std::ceil((0.5 * g.platform_size_m.x() + reach) * s_px - 0.5)) + 2);
+      }
       for (int u = 0; u < N; ++u) {
-        const Eigen::Vector2d p = texture_to_platform(g, u, v);
-        cv::Vec3d colour = bg;
-        for (const auto& ring : g.rings) {
-          // Outside the ring's bounding square the distance test below skips it too.
-          const Eigen::Vector2d dp = p - ring.centre_P_m;
-          if (std::abs(dp.x()) > ring.outer_radius_m + h ||
-              std::abs(dp.y()) > ring.outer_radius_m + h) {
+        if (u < code_u0 || u > code_u1) {
+          bool covered = false;
+          for (const auto& span : spans) covered = covered || (u >= span.u0 && u <= span.u1);
+          if (!covered) {
+            row[u] = bg_px;
             continue;
           }
-          const double d = dp.norm();
+        }
+        // Scalar arithmetic (no Eigen/cv temporaries per pixel: uninlined under the
+        // sanitizers, they made this texture ~15 s there), the same operations in the same
+        // order as texture_to_platform(), Vector2d::norm() and Vec3d's blend.
+        const Eigen::Vector2d p((u + 0.5) / s_px - 0.5 * g.platform_size_m.x(), p_y);
+        double colour[3] = {bg[0], bg[1], bg[2]};
+        for (const auto& span : spans) {
+          if (u < span.u0 || u > span.u1) continue;
+          const RingSet& ring = *span.ring;
+          // Outside the ring's bounding square the distance test below skips it too.
+          const double dx = p.x() - ring.centre_P_m.x(), dy = p_y - ring.centre_P_m.y();
+          if (std::abs(dx) > ring.outer_radius_m + h || std::abs(dy) > ring.outer_radius_m + h) {
+            continue;
+          }
+          const double d = std::sqrt(dx * dx + dy * dy);
           if (d > ring.outer_radius_m + h) continue;
           const double a =
               disc_coverage(d, ring.outer_radius_m, h) - disc_coverage(d, ring.inner_radius_m, h);
-          const cv::Vec3d rc(ring.colour_rgb[2], ring.colour_rgb[1], ring.colour_rgb[0]);
-          colour = colour * (1.0 - a) + rc * a;
+          for (int ch = 0; ch < 3; ++ch) {
+            colour[ch] = colour[ch] * (1.0 - a) + ring.colour_rgb[2 - ch] * a;
+          }
         }
         if (g.code.cells > 0 && std::abs(p.x()) < code_half + h &&
             std::abs(p.y()) < code_half + h) {
@@ -265,7 +312,7 @@ cv::Mat render_target_texture(const TargetGeometry& g) {
             }
           }
           const double a = dark / (h * h);
-          colour = colour * (1.0 - a);
+          for (double& c : colour) c = c * (1.0 - a);
         }
         for (int ch = 0; ch < 3; ++ch) {
           row[u][ch] = cv::saturate_cast<std::uint8_t>(std::lround(colour[ch] * 255.0));

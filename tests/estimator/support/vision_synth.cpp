@@ -4,6 +4,7 @@
 #include <cmath>
 #include <map>
 #include <mutex>
+#include <utility>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -123,6 +124,11 @@ cv::Mat render_ideal_ss(const TargetGeometry& g, const Eigen::Matrix3d& K, cv::S
   // is multiplied by the band's light (supersampling makes the band's edges anti-aliased).
   if (!opt.shadows.empty()) {
     const Eigen::Matrix3d G = (T * plane_homography(K, X_CP)).inverse();  // sample px -> P
+    std::vector<std::pair<double, double>> dirs;  // each band's (cos, sin), once per view
+    for (const auto& b : opt.shadows) {
+      const double a = b.angle_deg * M_PI / 180.0;
+      dirs.emplace_back(std::cos(a), std::sin(a));
+    }
     for (int y = 0; y < ss.rows; ++y) {
       float* row = ss.ptr<float>(y);
       for (int x = 0; x < ss.cols; ++x) {
@@ -130,9 +136,9 @@ cv::Mat render_ideal_ss(const TargetGeometry& g, const Eigen::Matrix3d& K, cv::S
         if (sref * (Mi(2, 0) * x + Mi(2, 1) * y + Mi(2, 2)) <= 0 || w == 0) continue;
         const double px = (G(0, 0) * x + G(0, 1) * y + G(0, 2)) / w;
         const double py = (G(1, 0) * x + G(1, 1) * y + G(1, 2)) / w;
-        for (const auto& b : opt.shadows) {
-          const double a = b.angle_deg * M_PI / 180.0;
-          const double s = px * std::cos(a) + py * std::sin(a) - b.offset_m;
+        for (std::size_t i = 0; i < opt.shadows.size(); ++i) {
+          const auto& b = opt.shadows[i];
+          const double s = px * dirs[i].first + py * dirs[i].second - b.offset_m;
           if (std::abs(s) < 0.5 * b.width_m) row[x] *= static_cast<float>(b.light);
         }
       }
