@@ -25,7 +25,7 @@ TEST(VisionAcceptance, NoReportedPoseExceedsTheReprojectionGate) {
     for (double tilt : {55.0, 65.0, 72.0, 78.0}) {
       for (double yaw : {0.0, 37.0, 115.0}) {
         // The aim point off-centre pushes the target towards the edge of a tilted view.
-        for (const Eigen::Vector2d aim : {Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(1.5, -0.8)}) {
+        for (const Eigen::Vector2d& aim : {Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(1.5, -0.8)}) {
           const Eigen::Isometry3d X_CP = test::look_at_pose(alt, tilt, yaw, 20.0 + yaw, aim);
           test::SynthOptions opt;
           opt.supersample = 2;
