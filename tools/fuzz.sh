@@ -11,6 +11,7 @@ export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=0:abort_on_error=1}"
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
 if [ ! -f build-san/CMakeCache.txt ]; then
   CC=clang CXX=clang++ cmake -S . -B build-san -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -DNDEBUG" -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O2 -DNDEBUG" \
     -DLANDER_FUZZ=ON > build-san.log 2>&1 || { cat build-san.log; exit 1; }
 fi
 cmake --build build-san -j"$(nproc)" --target fuzz_scenario fuzz_target_camera fuzz_detector \

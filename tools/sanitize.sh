@@ -25,6 +25,7 @@ ASAN_BASE="abort_on_error=1:strict_string_checks=1"
 export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$PWD/tools/lsan.supp:print_suppressions=0}"
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
 CC=clang CXX=clang++ cmake -S . -B build-san -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -DNDEBUG" -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O2 -DNDEBUG" \
   -DLANDER_FUZZ=ON > build-san.log 2>&1 || { cat build-san.log; exit 1; }
 if [[ "$mode" == ci ]]; then
   t0=$SECONDS
