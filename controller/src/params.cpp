@@ -70,6 +70,8 @@ void TrackerParams::validate() const {
   require(fix_gate_sigma > 0, "fix_gate_sigma", "must be > 0");
   require(relative_window_s > 0, "relative_window_s", "must be > 0");
   require(platform_max_speed_mps > 0, "platform_max_speed_mps", "must be > 0");
+  require(platform_jerk_noise_mps3 > 0, "platform_jerk_noise_mps3", "must be > 0");
+  require(platform_max_accel_mps2 > 0, "platform_max_accel_mps2", "must be > 0");
   require(history_s >= fit_window_s, "history_s", "must be >= fit_window_s");
   require(nav_history_s > 0, "nav_history_s", "must be > 0");
   require(turn_fit_window_s > 0, "turn_fit_window_s", "must be > 0");
@@ -112,6 +114,8 @@ void LandingParams::validate() const {
   require(recovery_max_carrot_m > 0, "recovery_max_carrot_m", "must be > 0");
   require(servo_ki >= 0, "servo_ki", "must be >= 0");
   require(servo_max_correction_m >= 0, "servo_max_correction_m", "must be >= 0");
+  require(platform_accel_ff_gain >= 0 && platform_accel_ff_gain <= 1, "platform_accel_ff_gain",
+          "must be in [0, 1]");
   require(gear_height_m >= 0, "gear_height_m", "must be >= 0");
   require(cut_height_m > 0, "cut_height_m", "must be > 0");
   require(touchdown_error_m > 0, "touchdown_error_m", "must be > 0");

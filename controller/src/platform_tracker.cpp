@@ -134,6 +134,10 @@ void PlatformTracker::filter_update(const PlatformFix& fix) {
     // Velocity unknown: 1 m/s sigma (a cart walks at ~0.5-1.5 m/s).
     kf_P_ << R, 0.0, 0.0, 1.0;
     kf_outliers_in_row_ = 0;
+    ca_t_ = fix.t_s;
+    ca_x_.setZero();
+    ca_x_.row(0) = z.transpose();
+    ca_P_ = Eigen::Vector3d(R, 1.0, 1.0).asDiagonal();  // 1 m/s^2: a cart's braking is ~0.6
   };
   if (!kf_init_) {
     restart();
@@ -162,6 +166,23 @@ void PlatformTracker::filter_update(const PlatformFix& fix) {
   kf_x_ += K * innov.transpose();
   kf_P_ = (Eigen::Matrix2d::Identity() - K * Eigen::RowVector2d(1.0, 0.0)) * kf_P_;
   kf_P_ = 0.5 * (kf_P_ + kf_P_.transpose()).eval();
+  // The acceleration filter on the same accepted fix: constant acceleration, white-noise jerk
+  // j (continuous-time Q of the triple integrator), H = [1 0 0].
+  const double dt_ca = std::max(0.0, fix.t_s - ca_t_);
+  ca_t_ = fix.t_s;
+  Eigen::Matrix3d Fa;
+  Fa << 1.0, dt_ca, 0.5 * dt_ca * dt_ca, 0.0, 1.0, dt_ca, 0.0, 0.0, 1.0;
+  const double j = p_.platform_jerk_noise_mps3 * p_.platform_jerk_noise_mps3;
+  const double d2 = dt_ca * dt_ca, d3 = d2 * dt_ca, d4 = d3 * dt_ca, d5 = d4 * dt_ca;
+  Eigen::Matrix3d Qa;
+  Qa << d5 / 20.0, d4 / 8.0, d3 / 6.0, d4 / 8.0, d3 / 3.0, d2 / 2.0, d3 / 6.0, d2 / 2.0, dt_ca;
+  ca_x_ = Fa * ca_x_;
+  ca_P_ = Fa * ca_P_ * Fa.transpose() + j * Qa;
+  const Eigen::Vector3d innov_ca = z - ca_x_.row(0).transpose();
+  const Eigen::Vector3d Ka = ca_P_.col(0) / (ca_P_(0, 0) + R);
+  ca_x_ += Ka * innov_ca.transpose();
+  ca_P_ = (Eigen::Matrix3d::Identity() - Ka * Eigen::RowVector3d(1.0, 0.0, 0.0)) * ca_P_;
+  ca_P_ = 0.5 * (ca_P_ + ca_P_.transpose()).eval();
 }
 
 void PlatformTracker::clear() {
@@ -237,6 +258,11 @@ bool PlatformTracker::local_position(Eigen::Vector3d* p_last) const {
 Eigen::Vector3d PlatformTracker::velocity() const {
   if (!kf_init_) return Eigen::Vector3d::Zero();
   return clamp_norm(kf_x_.row(1).transpose(), p_.platform_max_speed_mps);
+}
+
+Eigen::Vector3d PlatformTracker::acceleration() const {
+  if (!kf_init_) return Eigen::Vector3d::Zero();
+  return clamp_norm(ca_x_.row(2).transpose(), p_.platform_max_accel_mps2);
 }
 
 Eigen::Vector3d PlatformTracker::position_now(double t_s) const {

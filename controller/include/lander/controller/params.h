@@ -131,6 +131,11 @@ struct TrackerParams {
   double fix_gate_sigma{5.0};           ///< a fix this many sigma off the filter's prediction
                                         ///< is rejected; 3 in a row restart the filter
   double relative_window_s{0.25};       ///< window of the line fit of the relative vector (s)
+  double platform_jerk_noise_mps3{2.0}; ///< acceleration filter (a constant-acceleration Kalman
+                                        ///< filter beside the velocity one, same fixes): white-
+                                        ///< noise jerk of the platform (m/s^3); a cart reaches
+                                        ///< its 0.6 m/s^2 of braking in ~0.2 s
+  double platform_max_accel_mps2{2.0};  ///< bound of that acceleration estimate (m/s^2)
   double platform_max_speed_mps{2.0};   ///< plausibility bound of the platform speed (m/s)
   double history_s{10.0};               ///< how long observations are kept (s)
   double nav_history_s{1.0};            ///< nav-state buffer for latency (s)
@@ -157,6 +162,8 @@ void visit_fields(V& v, TrackerParams& p) {
   v("fix_noise_per_m", p.fix_noise_per_m);
   v("fix_gate_sigma", p.fix_gate_sigma);
   v("relative_window_s", p.relative_window_s);
+  v("platform_jerk_noise_mps3", p.platform_jerk_noise_mps3);
+  v("platform_max_accel_mps2", p.platform_max_accel_mps2);
   v("platform_max_speed_mps", p.platform_max_speed_mps);
   v("history_s", p.history_s);
   v("nav_history_s", p.nav_history_s);
@@ -230,6 +237,10 @@ struct LandingParams {
                                           ///< 0.6 wound up to -0.15 m while a stop-and-go cart
                                           ///< braked and then held the vehicle behind it
   double servo_max_correction_m{0.15};    ///< bound of that integral correction (m)
+  double platform_accel_ff_gain{0.0};     ///< share of the platform's estimated acceleration
+                                          ///< (PlatformTracker::acceleration()) the visual
+                                          ///< servo feeds forward, in [0, 1]; 0 = off (the
+                                          ///< default: not yet run on a dispersed campaign)
   // touchdown (seed 000 section 3.3: < 5 cm and steady platform)
   double gear_height_m{0.25};             ///< CoM height above the surface when landed (m):
                                           ///< models/hexarotor.xml skids at -0.24 m, r 0.01 m
@@ -386,6 +397,7 @@ void visit_fields(V& v, LandingParams& p) {
   v("recovery_max_carrot_m", p.recovery_max_carrot_m);
   v("servo_ki", p.servo_ki);
   v("servo_max_correction_m", p.servo_max_correction_m);
+  v("platform_accel_ff_gain", p.platform_accel_ff_gain);
   v("gear_height_m", p.gear_height_m);
   v("cut_height_m", p.cut_height_m);
   v("touchdown_error_m", p.touchdown_error_m);

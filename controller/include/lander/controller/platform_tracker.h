@@ -144,6 +144,12 @@ class PlatformTracker {
   // made velocities of ~0.3 m/s out of p_W_m.
   Eigen::Vector3d velocity() const;
 
+  // Platform acceleration in W at the last fix (m/s^2), bounded by platform_max_accel_mps2;
+  // 0 before the first fix. A constant-acceleration Kalman filter per axis (white-noise jerk
+  // platform_jerk_noise_mps3) on the same dead-reckoned fixes as velocity(), which it leaves
+  // alone; a fix the velocity filter rejects is not used, and it restarts with it.
+  Eigen::Vector3d acceleration() const;
+
   // The platform now: the local fit's position (velocity_window_s) at the last fix moved on
   // by velocity() (latency compensation); the raw last fix when there are too few to fit.
   Eigen::Vector3d position_now(double t_s) const;
@@ -173,6 +179,10 @@ class PlatformTracker {
   Eigen::Matrix<double, 2, 3> kf_x_{Eigen::Matrix<double, 2, 3>::Zero()};
   Eigen::Matrix2d kf_P_{Eigen::Matrix2d::Identity()};
   int kf_outliers_in_row_{0};
+  // Acceleration filter: rows (position, velocity, acceleration), one column per axis.
+  double ca_t_{0.0};
+  Eigen::Matrix3d ca_x_{Eigen::Matrix3d::Zero()};
+  Eigen::Matrix3d ca_P_{Eigen::Matrix3d::Identity()};
   int total_fixes_{0};
   int rejected_fixes_{0};
   int rejected_observations_{0};
