@@ -234,6 +234,13 @@ cv::Mat render_target_texture(const TargetGeometry& g) {
   for (int ch = 0; ch < 3; ++ch) {
     bg_px[ch] = cv::saturate_cast<std::uint8_t>(std::lround(bg[ch] * 255.0));
   }
+  // Texture columns of the platform's x within reach of x_m, two columns of margin, clipped.
+  auto columns = [&](double x_m, double reach, int* u0, int* u1) {
+    const double ua = platform_to_texture(g, {x_m - reach, 0.0}).x();
+    const double ub = platform_to_texture(g, {x_m + reach, 0.0}).x();
+    *u0 = std::max(0, static_cast<int>(std::floor(ua)) - 2);
+    *u1 = std::min(N - 1, static_cast<int>(std::ceil(ub)) + 2);
+  };
   cv::parallel_for_(cv::Range(0, N), [&](const cv::Range& rows) {
     std::vector<Span> spans;
     spans.reserve(g.rings.size());
@@ -242,21 +249,17 @@ cv::Mat render_target_texture(const TargetGeometry& g) {
       const double p_y = texture_to_platform(g, 0, v).y();
       spans.clear();
       for (const auto& ring : g.rings) {
-        if (std::abs(p_y - ring.centre_P_m.y()) > ring.outer_radius_m + h) continue;
         const double reach = ring.outer_radius_m + h;
-        const double ua = (ring.centre_P_m.x() - reach + 0.5 * g.platform_size_m.x()) * s_px - 0.5;
-        const double ub = (ring.centre_P_m.x() + reach + 0.5 * g.platform_size_m.x()) * s_px - 0.5;
-        const int u0 = std::max(0, static_cast<int>(std::floor(ua)) - 2);
-        const int u1 = std::min(N - 1, static_cast<int>(std::ceil(ub)) + 2);
-        if (u0 <= u1) spans.push_back({&ring, u0, u1});
+        if (std::abs(p_y - ring.centre_P_m.y()) > reach) continue;
+        Span span{&ring, 0, 0};
+        columns(ring.centre_P_m.x(), reach, &span.u0, &span.u1);
+        if (span.u0 <= span.u1) spans.push_back(span);
       }
       // The code square's columns on this row (the same margin); elsewhere, with no ring's
       // span either, a pixel is the background.
       int code_u0 = N, code_u1 = -1;
       if (g.code.cells > 0 && std::abs(p_y) < code_half + h) {
-        const double reach = code_half + h;
-        code_u0 = std::max(0, static_cast<int>(std::floor((0.5 * g.platform_size_m.x() - reach) * s_px - 0.5)) - 2);
-        code_u1 = std::min(N - 1, static_cast<int>(std::ceil((0.5 * g.platform_size_m.x() + reach) * s_px - 0.5)) + 2);
+        columns(0.0, code_half + h, &code_u0, &code_u1);
       }
       for (int u = 0; u < N; ++u) {
         if (u < code_u0 || u > code_u1) {

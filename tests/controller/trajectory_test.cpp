@@ -286,7 +286,8 @@ TEST(PlatformTracker, AccelerationOfABrakingCart) {
   // 30 Hz gives through it. RMS 0.15 m/s^2: a quarter of the braking it is there to see.
   constexpr double kAccelRmsTol_mps2 = 0.15;
   EXPECT_LT(std::sqrt(sum_sq_steady / n_steady), kAccelRmsTol_mps2);
-  std::printf("acceleration RMS at constant speed %.3f m/s^2, mean while braking %.3f m/s^2\n", std::sqrt(sum_sq_steady / n_steady), sum_brake / n_brake);
+  std::printf("acceleration RMS at constant speed %.3f m/s^2, mean while braking %.3f m/s^2\n",
+              std::sqrt(sum_sq_steady / n_steady), sum_brake / n_brake);
   // During the braking the mean estimate is the braking within the same tolerance (the step's
   // first 0.4 s left out: the filter's lag).
   EXPECT_NEAR(sum_brake / n_brake, -a_brake, kAccelRmsTol_mps2);
