@@ -88,6 +88,18 @@ void LandingController::on_path(const PathPoints& pts) {
   if (n > 0) last_path_t_ = pts.t_s;
 }
 
+void LandingController::on_platform_telemetry(const GpsSample& g) {
+  if (!g.valid) return;  // the platform's receiver had no fix
+  if (!std::isfinite(g.t_s) || !g.p_W_m.allFinite() || !g.v_W_mps.allFinite()) {
+    ++rejected_inputs_;
+    return;
+  }
+  if (have_broadcast_ && g.t_s <= broadcast_.t_s) return;  // out of order: keep the newer
+  broadcast_ = g;
+  have_broadcast_ = true;
+  ++telemetry_received_;
+}
+
 void LandingController::on_altitude(const AltitudeEstimate& alt) {
   if (!std::isfinite(alt.z_W_m) || !std::isfinite(alt.vz_W_mps) ||
       !std::isfinite(alt.h_surface_m)) {
@@ -148,6 +160,34 @@ void LandingController::spiral_offset(double t_spiral_s, Eigen::Vector2d* off,
   if (dir.norm() > 1e-9) *v = L.search_spiral_speed_mps * dir.normalized();
 }
 
+void LandingController::start_follow_point(const NavState& nav, const Eigen::Vector2d& v_plat) {
+  const LandingParams& L = p_.landing;
+  follow_p_ = nav.p_W_m;
+  follow_catch_v_ = nav.v_W_mps.head<2>() - v_plat;
+  // ... bounded by the catch-up speed (a fast entry is braked by the follow, not carried on).
+  if (follow_catch_v_.norm() > L.observe_follow_max_speed_mps) {
+    follow_catch_v_ *= L.observe_follow_max_speed_mps / follow_catch_v_.norm();
+  }
+}
+
+void LandingController::slew_follow_point(const Eigen::Vector2d& target, const Eigen::Vector2d& v_plat,
+                                          double dt) {
+  const LandingParams& L = p_.landing;
+  const Eigen::Vector2d gap = target - follow_p_.head<2>();
+  const double g = gap.norm();
+  Eigen::Vector2d catch_want = Eigen::Vector2d::Zero();
+  if (g > 1e-9) {
+    const double speed = std::min({L.observe_follow_max_speed_mps, kFollowGain_per_s * g,
+                                   std::sqrt(2.0 * L.observe_follow_max_accel_mps2 * g)});
+    catch_want = gap * (speed / g);
+  }
+  Eigen::Vector2d dv = catch_want - follow_catch_v_;
+  const double max_dv = L.observe_follow_max_accel_mps2 * dt;
+  if (dv.norm() > max_dv) dv *= max_dv / dv.norm();
+  follow_catch_v_ += dv;
+  follow_p_.head<2>() += (v_plat + follow_catch_v_) * dt;
+}
+
 // Search after a loss (issue 10). The pattern's centre is the motion model's prediction of
 // the platform (a turning cart keeps turning, a braking one stops), carried with its velocity
 // fed forward, until search_predict_max_s after the last fix; then it stays where the
@@ -157,26 +197,84 @@ void LandingController::spiral_offset(double t_spiral_s, Eigen::Vector2d* off,
 // (search_spiral_spacing_m, search_spiral_speed_mps relative to it) with the heading sweep,
 // and a climb at search_climb_rate_mps to at most search_max_height_m above the top for a
 // wider view.
+//
+// Once the tracker's history is too old to predict from, the platform's broadcast position
+// (when one is received) carries the centre instead of leaving it where the prediction led.
 Setpoint LandingController::search_after_loss(double t_s) {
   const LandingParams& L = p_.landing;
   Eigen::Vector2d centre_v = Eigen::Vector2d::Zero();
   Eigen::Vector2d pred;
-  if (predict_platform(t_s, &pred, &centre_v)) search_centre_ = pred;
+  if (predict_platform(t_s, &pred, &centre_v)) {
+    search_centre_ = pred;
+  } else if (broadcast_platform(t_s, &pred, &centre_v)) {
+    search_centre_ = pred;
+    ++telemetry_search_steps_;
+  }
   diag_.search_centre_W_m = Eigen::Vector3d(search_centre_.x(), search_centre_.y(), platform_z());
   Setpoint sp = hold(hold_p_);
   sp.p_W_m.head<2>() = search_centre_;
   sp.v_W_mps.head<2>() = centre_v;
   const double t_expand0 = std::max(search_t0_, search_t_seen_ + L.search_expand_after_s);
   if (t_s <= t_expand0) return sp;
-  const double t_exp = t_s - t_expand0;
+  expand_search(t_s - t_expand0, &sp);
+  return sp;
+}
+
+void LandingController::expand_search(double t_exp_s, Setpoint* sp) {
+  const LandingParams& L = p_.landing;
   Eigen::Vector2d off, off_v;
-  spiral_offset(t_exp, &off, &off_v);
-  sp.p_W_m.head<2>() += off;
-  sp.v_W_mps.head<2>() += off_v;
-  yaw_hold_ = std::remainder(search_yaw0_ + L.search_yaw_rate_degps * M_PI / 180.0 * t_exp,
+  spiral_offset(t_exp_s, &off, &off_v);
+  sp->p_W_m.head<2>() += off;
+  sp->v_W_mps.head<2>() += off_v;
+  yaw_hold_ = std::remainder(search_yaw0_ + L.search_yaw_rate_degps * M_PI / 180.0 * t_exp_s,
                              2 * M_PI);
-  sp.yaw_rad = yaw_hold_;
-  climb(t_exp, &sp);
+  sp->yaw_rad = yaw_hold_;
+  climb(t_exp_s, sp);
+}
+
+bool LandingController::broadcast_platform(double t_s, Eigen::Vector2d* p,
+                                           Eigen::Vector2d* v) const {
+  const double max_age = p_.landing.telemetry_max_age_s;
+  if (!have_broadcast_ || max_age <= 0.0) return false;
+  const double age = t_s - broadcast_.t_s;
+  if (age < 0.0 || age > max_age) return false;
+  *v = broadcast_.v_W_mps.head<2>();
+  *p = broadcast_.p_W_m.head<2>() + age * *v;
+  return true;
+}
+
+// The first search with the platform's broadcast position and no fix of the target: fly to
+// the position at the search height with the heading held, by the follow point of observe
+// (the broadcast's velocity fed forward, the gap closed at observe_follow_max_speed_mps
+// relative to it with observe_follow_max_accel_mps2: no setpoint jump, a few degrees of
+// tilt). The broadcast's error (the two receivers' GNSS errors, metres) is about the view's
+// half-width, so the target usually appears on arrival. search_expand_after_s after the
+// vehicle first came within telemetry_arrive_radius_m of it, the expanding pattern around the
+// moving position.
+Setpoint LandingController::search_at_broadcast(double t_s, double dt, const NavState& nav,
+                                                const Eigen::Vector2d& p,
+                                                const Eigen::Vector2d& v) {
+  const LandingParams& L = p_.landing;
+  ++telemetry_search_steps_;
+  if (!broadcast_following_) {
+    start_follow_point(nav, v);
+    broadcast_following_ = true;
+  }
+  slew_follow_point(p, v, dt);
+  if (std::isnan(broadcast_arrived_t_) &&
+      (nav.p_W_m.head<2>() - p).norm() <= L.telemetry_arrive_radius_m) {
+    broadcast_arrived_t_ = t_s;
+  }
+  Setpoint sp = hold(hold_p_);
+  sp.p_W_m.head<2>() = follow_p_.head<2>();
+  sp.v_W_mps.head<2>() = v + follow_catch_v_;
+  // Where a sweep in place begins should the broadcast stop (see the search case).
+  hold_p_.head<2>() = p;
+  search_t0_ = t_s;
+  diag_.search_centre_W_m = Eigen::Vector3d(p.x(), p.y(), platform_z());
+  if (std::isnan(broadcast_arrived_t_)) return sp;
+  const double t_exp = t_s - broadcast_arrived_t_ - L.search_expand_after_s;
+  if (t_exp > 0.0) expand_search(t_exp, &sp);
   return sp;
 }
 
@@ -283,21 +381,16 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
       search_after_loss_ = tracker_.has_fix();
       search_t_seen_ = search_after_loss_ ? tracker_.latest().t_s : t_s;
       search_centre_ = nav.p_W_m.head<2>();
+      broadcast_arrived_t_ = std::numeric_limits<double>::quiet_NaN();
+      broadcast_following_ = false;
       break;
     }
     case Mode::kObserve:
-      follow_p_ = nav.p_W_m;
       // Start the follow point with the vehicle's own velocity relative to the platform
       // estimate (zero without one): no jump in the velocity feed-forward.
-      follow_catch_v_ = nav.v_W_mps.head<2>() -
-                        (tracker_.num_fixes() >= kMinFixesForFeedForward
-                             ? Eigen::Vector2d(tracker_.velocity().head<2>())
-                             : Eigen::Vector2d::Zero());
-      // ... bounded by the catch-up speed (a fast entry is braked by the follow, not carried
-      // on).
-      if (follow_catch_v_.norm() > L.observe_follow_max_speed_mps) {
-        follow_catch_v_ *= L.observe_follow_max_speed_mps / follow_catch_v_.norm();
-      }
+      start_follow_point(nav, tracker_.num_fixes() >= kMinFixesForFeedForward
+                                  ? Eigen::Vector2d(tracker_.velocity().head<2>())
+                                  : Eigen::Vector2d::Zero());
       hold_p_ = nav.p_W_m;  // observe height: where the target was acquired
       break;
     case Mode::kApproach: {
@@ -473,6 +566,9 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
         search_t0_ = t_s;
         search_yaw0_ = yaw_hold_;
       }
+      // The platform's broadcast position, if one is received: fly there.
+      if (broadcast_platform(t_s, &p_pred, &v_pred)) return search_at_broadcast(t_s, dt, nav, p_pred, v_pred);
+      broadcast_following_ = false;
       // Nothing to predict from: heading sweep. The 1280 px image axis is along body y, so
       // turning the vehicle scans a circle of radius ~h tan(45 deg) instead of the 29 deg
       // half-angle along body x. After search_spiral_after_s, an outward spiral around hold_p_.
@@ -522,20 +618,7 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
         // speed that can still stop within the gap at the follow acceleration, and by the
         // catch-up speed. Its changes are acceleration-limited: accelerating tilts the camera
         // (fixed under the body) away from a platform ahead, and a hard start loses it.
-        const Eigen::Vector2d gap = target.head<2>() - follow_p_.head<2>();
-        const double g = gap.norm();
-        Eigen::Vector2d catch_want = Eigen::Vector2d::Zero();
-        if (g > 1e-9) {
-          const double speed =
-              std::min({L.observe_follow_max_speed_mps, kFollowGain_per_s * g,
-                        std::sqrt(2.0 * L.observe_follow_max_accel_mps2 * g)});
-          catch_want = gap * (speed / g);
-        }
-        Eigen::Vector2d dv = catch_want - follow_catch_v_;
-        const double max_dv = L.observe_follow_max_accel_mps2 * dt;
-        if (dv.norm() > max_dv) dv *= max_dv / dv.norm();
-        follow_catch_v_ += dv;
-        follow_p_.head<2>() += (v_plat + follow_catch_v_) * dt;
+        slew_follow_point(target.head<2>(), v_plat, dt);
         sp.p_W_m.head<2>() = follow_p_.head<2>();
         sp.v_W_mps.head<2>() = v_plat + follow_catch_v_;
         // Turn the wide image axis (body y) towards the platform while it is off to the side,

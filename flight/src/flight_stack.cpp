@@ -93,6 +93,12 @@ void FlightStack::on_gps(const GpsSample& g) {
   if (fusion_started_) fusion_.update_gps(g);
 }
 
+void FlightStack::on_platform_telemetry(const GpsSample& g) {
+  // Not the vehicle's own GPS: the sample screen's GPS state must not see it. The controller
+  // drops a non-finite message and counts it.
+  controller_.on_platform_telemetry(g);
+}
+
 void FlightStack::on_ultrasonic(const UltrasonicSample& u) {
   if (!screen_.accept(u)) return;
   if (fusion_started_) fusion_.update_ultrasonic(u);

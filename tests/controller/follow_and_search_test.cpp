@@ -7,6 +7,7 @@
 #include <cmath>
 #include <iostream>
 #include <limits>
+#include <memory>
 
 #include "support/hex_model.h"
 
@@ -221,6 +222,125 @@ TEST(Search, GivesUpAfterTheConfiguredTime) {
   EXPECT_EQ(r.transitions.front().to, Mode::kAborted);
   EXPECT_NEAR(r.transitions.front().t_s, 12.0, 0.05);
   EXPECT_FALSE(r.contact);
+}
+
+}  // namespace
+}  // namespace lander::ctl::test
+
+// The platform's broadcast position (its own GNSS fix over a radio link, issue 10's first
+// search): without a fix of the target, the search flies to it instead of sweeping around the
+// vehicle's start.
+namespace lander::ctl::test {
+namespace {
+
+// The broadcast as scenarios' sensors.platform_telemetry delivers it: 5 Hz, received 0.25 s
+// after its sampling time, with a position error of the size of two GNSS receivers' relative
+// error (~1 m: sqrt(2) x 0.7 m).
+constexpr double kBroadcastRate_hz = 5.0;
+constexpr double kBroadcastLatency_s = 0.25;
+const Eigen::Vector3d kBroadcastError_W_m(0.8, -0.6, 0.5);
+
+// Feeds the broadcast of `plat` into the controller (sampled every 1/rate, delivered after
+// the latency) with the constant error above; `stamp_age_s` makes every message that much
+// older than it really is (a stale link).
+std::function<void(double, LandingController&)> broadcast_feed(const PlatformTruth& plat,
+                                                                double stamp_age_s = 0.0) {
+  auto next = std::make_shared<double>(kBroadcastLatency_s);
+  return [plat, stamp_age_s, next](double t, LandingController& c) {
+    if (t + 1e-9 < *next) return;
+    *next += 1.0 / kBroadcastRate_hz;
+    const double t_sample = t - kBroadcastLatency_s;
+    GpsSample g;
+    g.t_s = t_sample - stamp_age_s;
+    g.p_W_m = plat.p_W(t_sample) + kBroadcastError_W_m;
+    g.v_W_mps = plat.v_W(t_sample);
+    c.on_platform_telemetry(g);
+  };
+}
+
+// The envelope's "low start, cart driving away" failure: a 1 m/s cart 14 m away (12 m ahead,
+// 8 m beside), outside the view of a vehicle 6 m up, driving away.
+LandingRunConfig driving_away_config() {
+  LandingRunConfig cfg;
+  cfg.platform.p0_W_m = Eigen::Vector3d(12.0, 8.0, 0.8);
+  cfg.platform.v_W_mps = Eigen::Vector3d(kCartSpeed_mps, 0.0, 0.0);
+  cfg.start_W_m = Eigen::Vector3d(0.0, 0.0, 6.0);
+  cfg.controller.landing.observe_frames = kNeverApproach;
+  cfg.max_time_s = 35.0;
+  return cfg;
+}
+
+// Flying to the broadcast closes the 14 m at observe's catch-up speed, 2 m/s relative to the
+// cart (~7 s), after its 1 m/s^2 acceleration (~1 s more), and the view reaches ~3 m ahead:
+// acquired by ~8 s, well before the sweep-and-spiral search, which does not find this cart in
+// its 30 s at all (checked below). 12 s leaves room for the broadcast's 1 m error.
+constexpr double kBroadcastAcquisitionBound_s = 12.0;
+
+TEST(SearchWithBroadcast, FliesToTheBroadcastPositionAndFindsTheCart) {
+  LandingRunConfig cfg = driving_away_config();
+  cfg.feed = broadcast_feed(cfg.platform);
+  long received = 0, search_steps = 0;
+  cfg.on_step = [&](double, const HexModel&, const LandingController& c) {
+    received = c.telemetry_received();
+    search_steps = c.telemetry_search_steps();
+  };
+  const LandingRunResult r = run_landing(cfg);
+  SCOPED_TRACE(r.describe());
+  std::cout << r.describe();
+  ASSERT_FALSE(r.transitions.empty());
+  EXPECT_EQ(r.transitions.front().to, Mode::kObserve);
+  EXPECT_LT(r.transitions.front().t_s, kBroadcastAcquisitionBound_s);
+  EXPECT_GT(received, 0);
+  EXPECT_GT(search_steps, 0);
+
+  // Without the broadcast: the sweep and the spiral around the start never see it.
+  LandingRunConfig none = driving_away_config();
+  const LandingRunResult n = run_landing(none);
+  SCOPED_TRACE(n.describe());
+  ASSERT_EQ(n.transitions.size(), 1u);
+  EXPECT_EQ(n.transitions.front().to, Mode::kAborted);
+  EXPECT_NE(n.transitions.front().reason.find("target not found in"), std::string::npos);
+}
+
+// A broadcast older than telemetry_max_age_s is not flown to: the search sweeps in place
+// (as without one) for search_spiral_after_s; a message without a fix (valid = false) is
+// ignored and one with a non-finite position is dropped and counted.
+TEST(SearchWithBroadcast, StaleNoFixAndNonFiniteMessagesAreNotUsed) {
+  LandingRunConfig cfg = driving_away_config();
+  cfg.max_time_s = 6.0;  // inside the in-place sweep (search_spiral_after_s = 8 s)
+  cfg.feed = broadcast_feed(cfg.platform, cfg.controller.landing.telemetry_max_age_s + 0.5);
+  Eigen::Vector3d p_end = Eigen::Vector3d::Zero();
+  long steps = -1;
+  cfg.on_step = [&](double, const HexModel& m, const LandingController& c) {
+    p_end = m.p;
+    steps = c.telemetry_search_steps();
+  };
+  run_landing(cfg);
+  EXPECT_EQ(steps, 0);
+  // Holding at the start (the sweep turns the heading only): within the position loop's
+  // hover wander, far from the 14 m towards the cart.
+  EXPECT_LT((p_end - cfg.start_W_m).head<2>().norm(), 0.3);
+
+  LandingController c(ControllerParams{}, CameraMount{});
+  GpsSample no_fix;
+  no_fix.t_s = 1.0;
+  no_fix.valid = false;
+  c.on_platform_telemetry(no_fix);
+  EXPECT_EQ(c.telemetry_received(), 0);
+  EXPECT_EQ(c.rejected_inputs(), 0);
+  GpsSample bad;
+  bad.t_s = 1.0;
+  bad.p_W_m.x() = std::numeric_limits<double>::quiet_NaN();
+  c.on_platform_telemetry(bad);
+  EXPECT_EQ(c.telemetry_received(), 0);
+  EXPECT_EQ(c.rejected_inputs(), 1);
+  GpsSample good;
+  good.t_s = 2.0;
+  c.on_platform_telemetry(good);
+  GpsSample older = good;
+  older.t_s = 1.5;  // out of order: the newer is kept
+  c.on_platform_telemetry(older);
+  EXPECT_EQ(c.telemetry_received(), 1);
 }
 
 }  // namespace

@@ -340,7 +340,9 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
     // ---- sensors -> flight stack ----
     if (vision.pending() && vision.pending_deliver_t() <= tn + 1e-12) finish_vision();  // due now
     const auto tc0 = Clock::now();
-    SensorSuite::Sampled smp = sensors.sample(truth);
+    const Eigen::Vector3d p_WP = world.X_WP().translation();
+    const PlatformTruth platform{tn, p_WP, world.cart_point_velocity_W(p_WP)};
+    SensorSuite::Sampled smp = sensors.sample(truth, &platform);
     recorder.on_samples(smp, truth);
     corrupt_on_the_wire(F, tn, smp);
     sensors.transmit(smp);
@@ -353,6 +355,7 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
       flight.on_vision(vr);
     }
     for (const MagSample& m : in.magnetometer) flight.on_mag(m);
+    for (const GpsSample& g : in.platform_telemetry) flight.on_platform_telemetry(g);
     for (const ImuSample& imu : in.imu) {
       if (const auto cmd = flight.on_imu(imu)) {
         for (int r = 0; r < kNumRotors; ++r) w_cmd[r] = cmd->w_radps[r];

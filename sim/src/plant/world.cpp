@@ -230,6 +230,12 @@ Eigen::Vector3d World::cart_qd() const {
   return {d_->qvel[cart_dof_[0]], d_->qvel[cart_dof_[1]], d_->qvel[cart_dof_[2]]};
 }
 
+Eigen::Vector3d World::cart_point_velocity_W(const Eigen::Vector3d& p_W) const {
+  const Eigen::Vector3d q = cart_q(), qd = cart_qd();
+  const Eigen::Vector3d r(p_W.x() - q.x(), p_W.y() - q.y(), 0.0);
+  return Eigen::Vector3d(qd.x(), qd.y(), 0.0) + Eigen::Vector3d(0.0, 0.0, qd.z()).cross(r);
+}
+
 void World::forward() { mj_forward(m_, d_); }
 
 bool World::state_finite() const {

@@ -330,6 +330,12 @@ void Recorder::finish(const Outcome& outcome, const flight::FlightStack& fs, Jso
                      {"duration_s", r.duration_s()}, {"prediction_error_m", r.prediction_error_m}});
   }
   summary["reacquisitions"] = reacq;
+  // The platform's broadcast (sensors.platform_telemetry): messages the flight software
+  // accepted, and how long its search flew to one (s).
+  summary["platform_telemetry"] = {
+      {"enabled", s_.sensors.platform_telemetry.enabled},
+      {"received", c.telemetry_received()},
+      {"search_s", static_cast<double>(c.telemetry_search_steps()) / c.params().cascade.outer_rate_hz}};
   Json vision = Json::object();
   vision["frames"] = frames_;
   vision["detections"] = detections_;

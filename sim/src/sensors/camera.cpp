@@ -62,17 +62,14 @@ ExposureMotion exposure_motion(const World& world, const CameraModel& cam) {
   m.v_W = world.v_WB() + m.w_W.cross(m.X_WC.translation() - X_WB.translation());
   // The platform (half-size 0.9 m, models/cart.xml) moving with the cart: x, y and yaw rate.
   const Eigen::Isometry3d X_WP = world.X_WP();
-  const Eigen::Vector3d q = world.cart_q(), qd = world.cart_qd();
-  const Eigen::Vector3d cart_origin(q.x(), q.y(), X_WP.translation().z());
-  for (const Eigen::Vector2d c : {Eigen::Vector2d(0, 0), Eigen::Vector2d(0.9, 0.9), Eigen::Vector2d(0.9, -0.9),
+  for (const Eigen::Vector2d& c : {Eigen::Vector2d(0, 0), Eigen::Vector2d(0.9, 0.9), Eigen::Vector2d(0.9, -0.9),
                                   Eigen::Vector2d(-0.9, 0.9), Eigen::Vector2d(-0.9, -0.9)}) {
     const Eigen::Vector3d p = X_WP * Eigen::Vector3d(c.x(), c.y(), 0.0);
     m.points_W.push_back(p);
-    m.point_velocities_W.push_back(Eigen::Vector3d(qd.x(), qd.y(), 0) +
-                                   Eigen::Vector3d(0, 0, qd.z()).cross(p - cart_origin));
+    m.point_velocities_W.push_back(world.cart_point_velocity_W(p));
   }
   // The ground (z = 0) where the image's centre and corners look, if they look down at it.
-  for (const Eigen::Vector2d uv : {Eigen::Vector2d(cam.cx_px, cam.cy_px), Eigen::Vector2d(0, 0),
+  for (const Eigen::Vector2d& uv : {Eigen::Vector2d(cam.cx_px, cam.cy_px), Eigen::Vector2d(0, 0),
                                    Eigen::Vector2d(cam.width_px, 0), Eigen::Vector2d(0, cam.height_px),
                                    Eigen::Vector2d(cam.width_px, cam.height_px)}) {
     const Eigen::Vector3d ray_W =

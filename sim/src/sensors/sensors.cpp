@@ -25,6 +25,12 @@ void SensorSuiteParams::validate() const {
   validate_nested("gps", gps);
   validate_nested("ultrasonic", ultrasonic);
   validate_nested("magnetometer", magnetometer);
+  validate_nested("platform_telemetry", platform_telemetry);
+}
+
+void PlatformTelemetryParams::validate() const {
+  require(message_loss_prob >= 0 && message_loss_prob <= 1, "message_loss_prob", "must be in [0, 1]");
+  validate_nested("gnss", gnss);
 }
 
 // ---------------------------------------------------------------------------------- IMU
@@ -129,6 +135,23 @@ GpsSample GpsModel::sample(const VehicleTruth& truth) {
   return s;
 }
 
+// --------------------------------------------------------------------- platform telemetry
+PlatformTelemetryModel::PlatformTelemetryModel(const PlatformTelemetryParams& p, std::uint64_t seed)
+    : p_((p.validate(), p)), gnss_(p.gnss, derive_seed(seed, "gnss")), link_rng_(derive_seed(seed, "link")) {}
+
+std::optional<GpsSample> PlatformTelemetryModel::sample(const PlatformTruth& platform) {
+  VehicleTruth t;  // the receiver rides on the platform
+  t.t_s = platform.t_s;
+  t.X_WB.translation() = platform.p_W_m;
+  t.v_W_mps = platform.v_W_mps;
+  GpsSample g = gnss_.sample(t);
+  if (u_(link_rng_) < p_.message_loss_prob) {
+    ++lost_;
+    return std::nullopt;
+  }
+  return g;
+}
+
 // ----------------------------------------------------------------------------- Ultrasonic
 UltrasonicModel::UltrasonicModel(const UltrasonicParams& p, std::uint64_t seed)
     : p_(p), rng_(seed), clock_((p.validate(), p.rate_hz)) {}
@@ -195,9 +218,10 @@ SensorSuite::SensorSuite(const SensorSuiteParams& p, std::uint64_t scenario_seed
       mag_(p.magnetometer, derive_seed(scenario_seed, "magnetometer")),
       baro_(p.baro, derive_seed(scenario_seed, "baro")),
       gps_(p.gps, derive_seed(scenario_seed, "gps")),
-      us_(p.ultrasonic, derive_seed(scenario_seed, "ultrasonic")) {}
+      us_(p.ultrasonic, derive_seed(scenario_seed, "ultrasonic")),
+      telemetry_(p.platform_telemetry, derive_seed(scenario_seed, "platform_telemetry")) {}
 
-SensorSuite::Sampled SensorSuite::sample(const VehicleTruth& truth) {
+SensorSuite::Sampled SensorSuite::sample(const VehicleTruth& truth, const PlatformTruth* platform) {
   const double t = truth.t_s;
   Sampled s;
   if (imu_.due(t)) s.imu = imu_.sample(truth);
@@ -205,6 +229,7 @@ SensorSuite::Sampled SensorSuite::sample(const VehicleTruth& truth) {
   if (baro_.due(t)) s.baro = baro_.sample(truth);
   if (gps_.due(t)) s.gps = gps_.sample(truth);
   if (us_.due(t)) s.ultrasonic = us_.sample(truth);
+  if (platform != nullptr && telemetry_.due(platform->t_s)) s.platform_telemetry = telemetry_.sample(*platform);
   return s;
 }
 
@@ -214,6 +239,9 @@ void SensorSuite::transmit(const Sampled& s) {
   if (s.baro) q_baro_.push(*s.baro, s.baro->t_s + p_.baro.latency_s);
   if (s.gps) q_gps_.push(*s.gps, s.gps->t_s + p_.gps.latency_s);
   if (s.ultrasonic) q_us_.push(*s.ultrasonic, s.ultrasonic->t_s + p_.ultrasonic.latency_s);
+  if (s.platform_telemetry) {
+    q_telemetry_.push(*s.platform_telemetry, s.platform_telemetry->t_s + p_.platform_telemetry.gnss.latency_s);
+  }
 }
 
 SensorSuite::Delivered SensorSuite::deliver(double t_s) {
@@ -223,6 +251,7 @@ SensorSuite::Delivered SensorSuite::deliver(double t_s) {
   d.gps = q_gps_.pop_ready(t_s);
   d.ultrasonic = q_us_.pop_ready(t_s);
   d.magnetometer = q_mag_.pop_ready(t_s);
+  d.platform_telemetry = q_telemetry_.pop_ready(t_s);
   return d;
 }
 

@@ -143,6 +143,9 @@ struct LandingRunConfig {
   int inner_every{4};               ///< controller every 4 physics steps = 250 Hz
   std::function<bool(double t_s, const Eigen::Isometry3d& X_WB)> visible;  ///< optional
   std::function<void(double t_s, const HexModel&, const LandingController&)> on_step;
+  /// optional: called before each controller step, to feed it further inputs (e.g. the
+  /// platform's broadcast) from the truth
+  std::function<void(double t_s, LandingController&)> feed;
 };
 
 struct LandingRunResult {

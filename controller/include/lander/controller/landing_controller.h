@@ -166,6 +166,13 @@ class LandingController {
   // estimate is dropped and counted.
   void on_altitude(const AltitudeEstimate& alt);
 
+  // The platform's broadcast position: its own GNSS fix (sampling time t_s, position and
+  // velocity in W), received over a radio link after its latency. Used by the search while no
+  // fix of the target predicts the platform (LandingParams::telemetry_max_age_s). A message
+  // without a fix (valid = false) or older than the newest is ignored; a non-finite one is
+  // dropped and counted (rejected_inputs).
+  void on_platform_telemetry(const GpsSample& g);
+
   // Inner loop (call at >= 250 Hz with non-decreasing t_s). Runs the outer loop and the mode
   // machine when due (CascadeParams::outer_rate_hz), contact detection every call. With a
   // non-finite time, navigation state or IMU sample it holds the previous command (counted).
@@ -193,6 +200,10 @@ class LandingController {
   /// follow_path statistics: outer steps in follow_path and those with a target point.
   long path_steps() const { return path_steps_; }
   long path_target_steps() const { return path_target_steps_; }
+  /// Platform broadcasts accepted (on_platform_telemetry), and outer steps whose search
+  /// flew to one (transit and pattern around it).
+  long telemetry_received() const { return telemetry_received_; }
+  long telemetry_search_steps() const { return telemetry_search_steps_; }
 
  private:
   void switch_to(double t_s, Mode to, const std::string& reason, const NavState& nav);
@@ -214,6 +225,20 @@ class LandingController {
   bool predict_platform(double t_s, Eigen::Vector2d* p, Eigen::Vector2d* v);
   // Search after a loss: the prediction, then an expanding pattern around it (see .cpp).
   Setpoint search_after_loss(double t_s);
+  // The platform's broadcast position predicted to t_s with its velocity, and that velocity;
+  // false without a message sampled within telemetry_max_age_s.
+  bool broadcast_platform(double t_s, Eigen::Vector2d* p, Eigen::Vector2d* v) const;
+  // First search with a broadcast and no fix: fly to it, then the pattern around it.
+  Setpoint search_at_broadcast(double t_s, double dt, const NavState& nav, const Eigen::Vector2d& p,
+                               const Eigen::Vector2d& v);
+  // The follow point (observe, the broadcast search): starts at the vehicle with its velocity
+  // relative to v_plat (bounded by observe_follow_max_speed_mps); each step moves with v_plat
+  // and closes the gap to `target` at a bounded catch-up speed and acceleration.
+  void start_follow_point(const NavState& nav, const Eigen::Vector2d& v_plat);
+  void slew_follow_point(const Eigen::Vector2d& target, const Eigen::Vector2d& v_plat, double dt);
+  // The expanding part of a search around a (moving) centre, t_exp_s after it began: the
+  // outward spiral added to sp, the heading sweep and the climb.
+  void expand_search(double t_exp_s, Setpoint* sp);
   // The search's climb t_climb_s after it began: sets sp's height and vertical velocity.
   void climb(double t_climb_s, Setpoint* sp) const;
   // Ends the landing in aborted with `why` (search_give_up_s, or the last attempt failed).
@@ -290,6 +315,13 @@ class LandingController {
   double last_platform_z_{0.0};      // height of the last fix seen (m), see platform_z()
   LandingDecisionLog decisions_;
   std::vector<Reacquisition> reacquisitions_;
+  // The platform's broadcast (on_platform_telemetry).
+  bool have_broadcast_{false};
+  GpsSample broadcast_;              // the newest accepted message
+  long telemetry_received_{0}, telemetry_search_steps_{0};
+  bool broadcast_following_{false};  // the follow point flies to the broadcast
+  double broadcast_arrived_t_{std::numeric_limits<double>::quiet_NaN()};  // this search came
+                                     // within telemetry_arrive_radius_m of it (s)
 };
 
 }  // namespace lander::ctl

@@ -309,6 +309,18 @@ struct LandingParams {
                                           ///< (m): the view's narrow half-width grows from
                                           ///< ~3 m at 6 m to ~5.5 m, and the target is
                                           ///< detected from 15 m (DESIGN.md)
+  // The platform's broadcast position (its own GNSS fix sent over a radio link, as a ship or a
+  // ground vehicle would send it; received only when the scenario's plant has
+  // sensors.platform_telemetry.enabled). Without a fix of the target, the search flies to it
+  // instead of sweeping around the vehicle's own start.
+  double telemetry_max_age_s{2.0};        ///< use the broadcast while its latest message was
+                                          ///< sampled at most this long ago (s), predicted to
+                                          ///< now with its velocity; 0 = never use it
+  double telemetry_arrive_radius_m{3.0};  ///< the search pattern (spiral, heading sweep, climb)
+                                          ///< around the broadcast position begins
+                                          ///< search_expand_after_s after the vehicle first
+                                          ///< came this close to it (m): ~ the view's
+                                          ///< narrow half-width at 6 m
   // Bounded landing decision (issue 10). The geometry is the flight software's own belief,
   // nominal copies of models/cart.xml and models/hexarotor.xml (like gear_height_m).
   double platform_half_size_m{0.9};       ///< half the side of the square landing top (m):
@@ -430,6 +442,8 @@ void visit_fields(V& v, LandingParams& p) {
   v("search_expand_after_s", p.search_expand_after_s);
   v("search_climb_rate_mps", p.search_climb_rate_mps);
   v("search_max_height_m", p.search_max_height_m);
+  v("telemetry_max_age_s", p.telemetry_max_age_s);
+  v("telemetry_arrive_radius_m", p.telemetry_arrive_radius_m);
   v("platform_half_size_m", p.platform_half_size_m);
   v("skid_half_spread_m", p.skid_half_spread_m);
   v("skid_half_length_m", p.skid_half_length_m);

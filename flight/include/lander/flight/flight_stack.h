@@ -66,6 +66,10 @@ class FlightStack {
   void on_gps(const GpsSample& g);
   void on_ultrasonic(const UltrasonicSample& u);
   void on_mag(const MagSample& m);
+  // The platform's broadcast position: its own GNSS fix, received over a radio link (only
+  // when the plant broadcasts one: sensors.platform_telemetry). Goes to the controller's
+  // search (LandingController::on_platform_telemetry).
+  void on_platform_telemetry(const GpsSample& g);
   void on_vision(const VisionResult& vr);
   // Navigation and altitude prediction, then the controller's inner loop. Returns the rotor
   // command, or nothing while the navigation has no valid state yet (or the sample was

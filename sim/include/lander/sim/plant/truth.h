@@ -25,4 +25,13 @@ struct VehicleTruth {
   double thrust_fraction{0.5};
 };
 
+// Ground truth of the landing platform (frame P's origin, the centre of the top) at one
+// instant: what the platform's own GNSS receiver measures for its broadcast
+// (sensors.platform_telemetry).
+struct PlatformTruth {
+  double t_s{0.0};                                   ///< sim time (s)
+  Eigen::Vector3d p_W_m{Eigen::Vector3d::Zero()};    ///< position of P's origin in W
+  Eigen::Vector3d v_W_mps{Eigen::Vector3d::Zero()};  ///< its velocity in W
+};
+
 }  // namespace lander::sim

@@ -117,6 +117,8 @@ class World {
   void set_cart_state(const Eigen::Vector3d& q_xy_yaw, const Eigen::Vector3d& qd);
   Eigen::Vector3d cart_q() const;   ///< (x, y, yaw)
   Eigen::Vector3d cart_qd() const;  ///< rates
+  // Velocity in W of a point p_W carried by the cart (its x, y and yaw rates) (m/s).
+  Eigen::Vector3d cart_point_velocity_W(const Eigen::Vector3d& p_W) const;
   int cart_dof(int i) const { return cart_dof_[i]; }
   void forward();
   // True when every position and velocity of the physics state is finite.

@@ -381,12 +381,58 @@ class MagnetometerModel {
   Eigen::Vector3d bias_{Eigen::Vector3d::Zero()};
 };
 
+// ------------------------------------------------------------------- platform telemetry
+// The landing platform's broadcast: the cart's own GNSS receiver (a GpsModel on the
+// platform's truth: Gauss-Markov position error, velocity noise, drop-outs of the fix) sent
+// over a radio link to the vehicle, as a ship or a ground vehicle broadcasts its position.
+// The message is stamped with its sampling time (GNSS time); it arrives gnss.latency_ms
+// later (receiver and radio together), and each message is lost on the link with
+// probability message_loss_prob. Off by default: the flight software then has no prior of
+// where the cart is and searches around its own start.
+struct PlatformTelemetryParams {
+  bool enabled{false};           ///< the platform broadcasts (and the vehicle receives)
+  double message_loss_prob{0.0}; ///< probability that one message is lost on the link (-)
+  GpsParams gnss{default_gnss()};///< the platform's receiver; latency_ms includes the radio
+
+  static GpsParams default_gnss() {
+    GpsParams g;
+    g.latency_s = 0.25;  // 100 ms in the receiver, ~150 ms on a telemetry radio
+    return g;
+  }
+  void validate() const;
+};
+
+template <class V>
+void visit_fields(V& v, PlatformTelemetryParams& p) {
+  v("enabled", p.enabled);
+  v("message_loss_prob", p.message_loss_prob);
+  v.nested("gnss", p.gnss);
+}
+
+class PlatformTelemetryModel {
+ public:
+  PlatformTelemetryModel(const PlatformTelemetryParams& p, std::uint64_t seed);  // validates p
+  bool due(double t_s) const { return p_.enabled && gnss_.due(t_s); }
+  // The platform's fix (stamped platform.t_s), or nothing when the link lost it.
+  std::optional<GpsSample> sample(const PlatformTruth& platform);
+  const PlatformTelemetryParams& params() const { return p_; }
+  long lost() const { return lost_; }  ///< messages lost on the link so far
+
+ private:
+  PlatformTelemetryParams p_;
+  GpsModel gnss_;
+  std::mt19937_64 link_rng_;
+  std::uniform_real_distribution<double> u_{0.0, 1.0};
+  long lost_{0};
+};
+
 struct SensorSuiteParams {
   ImuParams imu;
   BaroParams baro;
   GpsParams gps;
   UltrasonicParams ultrasonic;
   MagnetometerParams magnetometer;
+  PlatformTelemetryParams platform_telemetry;  ///< not the vehicle's: the platform's broadcast
   // Throws ConfigError whose message names the sensor and the field ("baro: ...").
   void validate() const;
 };
@@ -398,6 +444,7 @@ void visit_fields(V& v, SensorSuiteParams& p) {
   v.nested("gps", p.gps);
   v.nested("ultrasonic", p.ultrasonic);
   v.nested("magnetometer", p.magnetometer);
+  v.nested("platform_telemetry", p.platform_telemetry);
 }
 
 // Derives the seed of one random stream ("imu", "camera", ...) from the scenario seed
@@ -418,6 +465,7 @@ class SensorSuite {
     std::optional<GpsSample> gps;
     std::optional<UltrasonicSample> ultrasonic;
     std::optional<MagSample> magnetometer;
+    std::optional<GpsSample> platform_telemetry;  ///< the platform's broadcast (not lost)
   };
   struct Delivered {
     std::vector<ImuSample> imu;
@@ -425,12 +473,16 @@ class SensorSuite {
     std::vector<GpsSample> gps;
     std::vector<UltrasonicSample> ultrasonic;
     std::vector<MagSample> magnetometer;
+    std::vector<GpsSample> platform_telemetry;
     bool empty() const {
-      return imu.empty() && baro.empty() && gps.empty() && ultrasonic.empty() && magnetometer.empty();
+      return imu.empty() && baro.empty() && gps.empty() && ultrasonic.empty() && magnetometer.empty() &&
+             platform_telemetry.empty();
     }
   };
   SensorSuite(const SensorSuiteParams& p, std::uint64_t scenario_seed);  // validates p
-  Sampled sample(const VehicleTruth& truth);
+  // `platform`: the platform's truth for its broadcast (sensors.platform_telemetry); without it
+  // (or with the broadcast off) no telemetry is sampled.
+  Sampled sample(const VehicleTruth& truth, const PlatformTruth* platform = nullptr);
   void transmit(const Sampled& s);  // queues each sample for its sampling time + latency
   Delivered deliver(double t_s);
   ImuModel& imu() { return imu_; }
@@ -438,6 +490,7 @@ class SensorSuite {
   GpsModel& gps() { return gps_; }                  // e.g. gps().inject_offset(...)
   UltrasonicModel& ultrasonic() { return us_; }     // e.g. ultrasonic().inject_garbage(...)
   MagnetometerModel& magnetometer() { return mag_; }
+  PlatformTelemetryModel& platform_telemetry() { return telemetry_; }
   const SensorSuiteParams& params() const { return p_; }
 
  private:
@@ -447,11 +500,13 @@ class SensorSuite {
   BaroModel baro_;
   GpsModel gps_;
   UltrasonicModel us_;
+  PlatformTelemetryModel telemetry_;
   DelayQueue<ImuSample> q_imu_;
   DelayQueue<BaroSample> q_baro_;
   DelayQueue<GpsSample> q_gps_;
   DelayQueue<UltrasonicSample> q_us_;
   DelayQueue<MagSample> q_mag_;
+  DelayQueue<GpsSample> q_telemetry_;
 };
 
 }  // namespace lander::sim
