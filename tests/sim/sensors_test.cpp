@@ -459,5 +459,71 @@ TEST(SensorSuite, RatesLatenciesAndSeeds) {
   EXPECT_EQ(derive_seed(7, "baro"), derive_seed(7, "baro"));
 }
 
+// The platform's broadcast (sensors.platform_telemetry): off by default, so nothing is sampled
+// even with the platform's truth at hand; on, the platform's GNSS fix (its error statistics,
+// not the truth) arrives after its latency at its rate less the lost messages, and turning
+// it on leaves every vehicle sensor's samples as they were (its own random streams).
+TEST(PlatformTelemetry, OffByDefaultOnItsRateLatencyLossAndErrors) {
+  PlatformTruth plat;
+  plat.p_W_m = Eigen::Vector3d(30.0, -4.0, 0.8);
+  plat.v_W_mps = Eigen::Vector3d(1.0, 0.5, 0.0);
+  SensorSuiteParams off;
+  SensorSuite s_off(off, 5);
+  SensorSuiteParams on = off;
+  on.platform_telemetry.enabled = true;
+  on.platform_telemetry.message_loss_prob = 0.2;
+  on.platform_telemetry.gnss.correlation_time_s = 0.05;  // ~independent errors at 5 Hz
+  on.platform_telemetry.gnss.horizontal_std_m = 1.5;
+  SensorSuite s_on(on, 5);
+  const double T = 2000.0;  // 10000 fixes at 5 Hz
+  std::vector<double> ex, ey, evx;
+  long delivered = 0;
+  for (int k = 0; k <= static_cast<int>(T * 100); ++k) {  // a 100 Hz loop is enough here
+    const double t = k * 1e-2;
+    const VehicleTruth tr = at_rest(t, 2.0);
+    const PlatformTruth now{t, plat.p_W_m + plat.v_W_mps * t, plat.v_W_mps};
+    const SensorSuite::Sampled a = s_off.sample(tr, &now), b = s_on.sample(tr, &now);
+    EXPECT_FALSE(a.platform_telemetry.has_value());
+    // The vehicle's own sensors draw the same samples either way.
+    ASSERT_EQ(a.gps.has_value(), b.gps.has_value());
+    ASSERT_EQ(a.imu.has_value(), b.imu.has_value());
+    if (a.gps) {
+      EXPECT_EQ(a.gps->p_W_m, b.gps->p_W_m);
+    }
+    if (a.imu) {
+      EXPECT_EQ(a.imu->accel_B_mps2, b.imu->accel_B_mps2);
+    }
+    s_on.transmit(b);
+    for (const GpsSample& g : s_on.deliver(t).platform_telemetry) {
+      ++delivered;
+      EXPECT_NEAR(t - g.t_s, on.platform_telemetry.gnss.latency_s, 1e-2 + 1e-9);
+      const Eigen::Vector3d truth = plat.p_W_m + plat.v_W_mps * g.t_s;
+      ex.push_back(g.p_W_m.x() - truth.x());
+      ey.push_back(g.p_W_m.y() - truth.y());
+      evx.push_back(g.v_W_mps.x() - plat.v_W_mps.x());
+    }
+  }
+  // Messages: 5 Hz over T less the latency, each kept with probability 0.8 (binomial).
+  const double n = 5.0 * (T - on.platform_telemetry.gnss.latency_s);
+  const double kept = 1.0 - on.platform_telemetry.message_loss_prob;
+  EXPECT_NEAR(delivered, n * kept, kSigmas * std::sqrt(n * kept * (1 - kept)));
+  EXPECT_NEAR(s_on.platform_telemetry().lost(), n * (1 - kept), kSigmas * std::sqrt(n * kept * (1 - kept)) + 2);
+  const double N = static_cast<double>(ex.size());
+  for (const std::vector<double>* e : {&ex, &ey}) {
+    const Moments m = moments(*e);
+    EXPECT_NEAR(m.mean, 0.0, kSigmas * 1.5 / std::sqrt(N));
+    EXPECT_NEAR(m.std, 1.5, kSigmas * 1.5 / std::sqrt(2 * N));
+  }
+  EXPECT_NEAR(moments(evx).std, on.platform_telemetry.gnss.velocity_std_mps,
+              kSigmas * on.platform_telemetry.gnss.velocity_std_mps / std::sqrt(2 * N));
+}
+
+TEST(PlatformTelemetry, BadValuesNameTheirKey) {
+  expect_bad_value_named<SensorSuiteParams>("platform_telemetry: {message_loss_prob: 1.5}",
+                                            "platform_telemetry.message_loss_prob");
+  expect_bad_value_named<SensorSuiteParams>("platform_telemetry: {gnss: {rate_hz: 0}}",
+                                            "platform_telemetry.gnss.rate_hz");
+}
+
 }  // namespace
 }  // namespace lander::sim
