@@ -244,7 +244,7 @@ bool LandingController::broadcast_platform(double t_s, Eigen::Vector2d* p,
 }
 
 // The first search with the platform's broadcast position and no fix of the target: fly to
-// the position at the search height with the heading held, by the follow point of observe
+// the position at least telemetry_search_height_m above the surface with the heading held, by the follow point of observe
 // (the broadcast's velocity fed forward, the gap closed at observe_follow_max_speed_mps
 // relative to it with observe_follow_max_accel_mps2: no setpoint jump, a few degrees of
 // tilt). The broadcast's error (the two receivers' GNSS errors, metres) is about the view's
@@ -261,6 +261,11 @@ Setpoint LandingController::search_at_broadcast(double t_s, double dt, const Nav
     broadcast_following_ = true;
   }
   slew_follow_point(p, v, dt);
+  // The search height for a broadcast's error (never lower than the search began at).
+  const double z_view = altitude_.valid
+                            ? nav.p_W_m.z() + (L.telemetry_search_height_m - altitude_.h_surface_m)
+                            : hold_p_.z();
+  hold_p_.z() = std::max(hold_p_.z(), z_view);
   if (std::isnan(broadcast_arrived_t_) &&
       (nav.p_W_m.head<2>() - p).norm() <= L.telemetry_arrive_radius_m) {
     broadcast_arrived_t_ = t_s;

@@ -164,6 +164,7 @@ void LandingParams::validate() const {
   require(search_max_height_m > 0, "search_max_height_m", "must be > 0");
   require(telemetry_max_age_s >= 0, "telemetry_max_age_s", "must be >= 0");
   require(telemetry_arrive_radius_m > 0, "telemetry_arrive_radius_m", "must be > 0");
+  require(telemetry_search_height_m > 0, "telemetry_search_height_m", "must be > 0");
   require(skid_half_spread_m > 0, "skid_half_spread_m", "must be > 0");
   require(skid_half_length_m > 0, "skid_half_length_m", "must be > 0");
   require(wide_gate_margin_m >= 0, "wide_gate_margin_m", "must be >= 0");

@@ -243,10 +243,10 @@ const Eigen::Vector3d kBroadcastError_W_m(0.8, -0.6, 0.5);
 // Feeds the broadcast of `plat` into the controller (sampled every 1/rate, delivered after
 // the latency) with the constant error above; `stamp_age_s` makes every message that much
 // older than it really is (a stale link).
-std::function<void(double, LandingController&)> broadcast_feed(const PlatformTruth& plat,
-                                                                double stamp_age_s = 0.0) {
+std::function<void(double, const HexModel&, LandingController&)> broadcast_feed(
+    const PlatformTruth& plat, double stamp_age_s = 0.0) {
   auto next = std::make_shared<double>(kBroadcastLatency_s);
-  return [plat, stamp_age_s, next](double t, LandingController& c) {
+  return [plat, stamp_age_s, next](double t, const HexModel&, LandingController& c) {
     if (t + 1e-9 < *next) return;
     *next += 1.0 / kBroadcastRate_hz;
     const double t_sample = t - kBroadcastLatency_s;
@@ -305,6 +305,37 @@ TEST(SearchWithBroadcast, FliesToTheBroadcastPositionAndFindsTheCart) {
 // A broadcast older than telemetry_max_age_s is not flown to: the search sweeps in place
 // (as without one) for search_spiral_after_s; a message without a fix (valid = false) is
 // ignored and one with a non-finite position is dropped and counted.
+// A search that began low (2.5 m: a low start, or search_min_height_m) climbs to
+// telemetry_search_height_m above the surface (the fused altitude's, here the truth's) while it
+// flies to the broadcast, so that the view covers the broadcast's error.
+TEST(SearchWithBroadcast, ClimbsToTheBroadcastSearchHeight) {
+  LandingRunConfig cfg = driving_away_config();
+  cfg.start_W_m.z() = 2.5;
+  cfg.max_time_s = 5.0;  // still in transit: the cart is ~14 m away
+  const auto broadcast = broadcast_feed(cfg.platform);
+  cfg.feed = [&](double t, const HexModel& m, LandingController& c) {
+    broadcast(t, m, c);
+    AltitudeEstimate a;
+    a.t_s = t;
+    a.valid = true;
+    a.z_W_m = m.p.z();
+    a.vz_W_mps = m.v.z();
+    a.h_surface_m = m.p.z();  // over the ground (z = 0)
+    c.on_altitude(a);
+  };
+  double z_end = 0.0;
+  Mode mode_end = Mode::kObserve;
+  cfg.on_step = [&](double, const HexModel& m, const LandingController& c) {
+    z_end = m.p.z();
+    mode_end = c.mode();
+  };
+  run_landing(cfg);
+  EXPECT_EQ(mode_end, Mode::kSearch);
+  // 3.5 m of climb at up to max_vel_up_mps (2 m/s) in 5 s: there, within the height loop's
+  // settling (0.3 m).
+  EXPECT_NEAR(z_end, cfg.controller.landing.telemetry_search_height_m, 0.3);
+}
+
 TEST(SearchWithBroadcast, StaleNoFixAndNonFiniteMessagesAreNotUsed) {
   LandingRunConfig cfg = driving_away_config();
   cfg.max_time_s = 6.0;  // inside the in-place sweep (search_spiral_after_s = 8 s)

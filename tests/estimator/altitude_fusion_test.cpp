@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 #include <Eigen/Eigenvalues>
 
@@ -269,6 +270,74 @@ TEST(AltitudeFusion, AcquiresUnknownSurfaceComingDownIntoRange) {
   EXPECT_TRUE(f.ultrasonic_set_active());
   EXPECT_NEAR(f.estimate().h_surface_m, 2.7, 1e-6);
   EXPECT_NEAR(f.estimate().z_W_m, 3.5, 1e-9);
+}
+
+// A degraded GPS's vertical error taken in at the start: the filter believes 4.5 m over the
+// ground, the vehicle is at 1.2 m (a flown campaign run went down to 0.94 m like this while
+// its search held "4.5 m"). In-range readings that imply a 3.3 m step are garbage on their
+// own; height_reset_count of them that agree set the height from them over the believed
+// ground, with the barometer's and the GPS's predictions unchanged; the eq. 17 set is then
+// in force and the next reading is accepted.
+TEST(AltitudeFusion, AgreeingRangeReadingsResetAHeightThatIsWrong) {
+  AltitudeFusionParams p;
+  AltitudeFusion f(p);
+  f.reset(0.0, 4.5, 0.0);
+  const AltitudeEstimate e0 = f.estimate();
+  double t = 0.0;
+  for (int k = 0; k < p.height_reset_count; ++k) {
+    t += 0.05;
+    f.predict(t, 0.0);
+    const O o = f.update_ultrasonic(us_at(t, 1.2 + (k % 2 ? 0.003 : -0.003)));
+    if (k + 1 < p.height_reset_count) {
+      EXPECT_EQ(o, O::kRejectedSet) << k;
+      EXPECT_NEAR(f.estimate().z_W_m, 4.5, 1e-9);
+    } else {
+      EXPECT_EQ(o, O::kHeightReset);
+    }
+  }
+  const AltitudeEstimate e1 = f.estimate();
+  // The readings' mean, 1.2 m, over the believed ground (0): within the readings' spread.
+  EXPECT_NEAR(e1.z_W_m, 1.2, 0.003);
+  EXPECT_NEAR(e1.h_surface_m, 1.2, 0.003);
+  EXPECT_EQ(f.height_resets(), 1);
+  EXPECT_TRUE(f.ultrasonic_set_active());
+  // The barometer reads z + b: its prediction did not move, the bias took the 3.3 m.
+  EXPECT_NEAR(e1.z_W_m + e1.baro_bias_m, e0.z_W_m + e0.baro_bias_m, 1e-9);
+  EXPECT_NEAR(e1.baro_bias_m - e0.baro_bias_m, 3.3, 0.003);
+  // The height's variance is the believed surface's plus the readings' (their mean is good to
+  // a millimetre): a few centimetres, not the 3.3 m it was off.
+  EXPECT_LT(std::sqrt(e1.var_m2), 0.1);
+  t += 0.05;
+  f.predict(t, 0.0);
+  EXPECT_EQ(f.update_ultrasonic(us_at(t, 1.2)), O::kAccepted);
+}
+
+// In-range values that do not agree (eq. 12's garbage falls inside the range a third of the
+// time) never reset the height, nor does a run one reading short of height_reset_count.
+TEST(AltitudeFusion, GarbageAndShortRunsNeverResetTheHeight) {
+  AltitudeFusionParams p;
+  AltitudeFusion f(p);
+  f.reset(0.0, 6.0, 0.0);
+  double t = 0.0;
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> in_range(p.ultrasonic_min_m, p.ultrasonic_max_m);
+  for (int k = 0; k < 2000; ++k) {
+    t += 0.05;
+    f.predict(t, 0.0);
+    EXPECT_NE(f.update_ultrasonic(us_at(t, in_range(rng))), O::kHeightReset);
+  }
+  for (int run = 0; run < 3; ++run) {
+    for (int k = 0; k + 1 < p.height_reset_count; ++k) {
+      t += 0.05;
+      f.predict(t, 0.0);
+      EXPECT_EQ(f.update_ultrasonic(us_at(t, 1.0)), O::kRejectedSet);
+    }
+    t += 0.05;
+    f.predict(t, 0.0);
+    EXPECT_EQ(f.update_ultrasonic(us_at(t, 1e6)), O::kRejectedRange);  // breaks the run
+  }
+  EXPECT_EQ(f.height_resets(), 0);
+  EXPECT_NEAR(f.estimate().z_W_m, 6.0, 1e-6);
 }
 
 }  // namespace

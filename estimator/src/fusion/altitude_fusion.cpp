@@ -56,6 +56,7 @@ void AltitudeFusionParams::validate() const {
   require(step_min_m > 0, "step_min_m", "must be > 0");
   require(step_count >= 1 && step_count <= 8, "step_count", "must be in 1..8");
   require(step_agree_m > 0, "step_agree_m", "must be > 0");
+  require(height_reset_count >= 0, "height_reset_count", "must be >= 0");
   require(surface_step_max_m > step_min_m, "surface_step_max_m", "must be > step_min_m");
   require(max_sample_age_s > 0, "max_sample_age_ms", "must be > 0");
 }
@@ -260,12 +261,51 @@ bool AltitudeFusion::collect_step(double h_now_m, double* mean_m, double* var_m2
   return true;
 }
 
+bool AltitudeFusion::collect_height_reset(double h_now_m, double* mean_m, double* var_m2) {
+  if (p_.height_reset_count <= 0) return false;
+  // Each compensated reading within step_agree_m of the previous one (garbage does not chain).
+  if (reset_n_ > 0 && std::abs(h_now_m - reset_last_) > p_.step_agree_m) reset_n_ = 0;
+  if (reset_n_ == 0) reset_sum_ = reset_sum2_ = 0.0;
+  ++reset_n_;
+  reset_sum_ += h_now_m;
+  reset_sum2_ += h_now_m * h_now_m;
+  reset_last_ = h_now_m;
+  if (reset_n_ < p_.height_reset_count) return false;
+  const double n = reset_n_;
+  *mean_m = reset_sum_ / n;
+  const double spread2 = std::max(0.0, reset_sum2_ / n - *mean_m * *mean_m);
+  *var_m2 = p_.ultrasonic_std_m * p_.ultrasonic_std_m / n + spread2;
+  reset_n_ = 0;
+  return true;
+}
+
+// z' = s + h; the barometer (z + b) and the GPS (z + e_g) keep predicting what they did, so
+// b' = b + z - s - h and e_g' = e_g + z - s - h; every other state unchanged. As a linear map
+// x' = A x + B h with h ~ (h_mean, var): P' = A P A^T + B var B^T.
+void AltitudeFusion::reset_height(double h_mean_m, double var_m2) {
+  Mat A = Mat::Identity();
+  Vec B = Vec::Zero();
+  A(kZ, kZ) = 0.0;
+  A(kZ, kSurface) = 1.0;
+  B(kZ) = 1.0;
+  for (int k : {kBaroBias, kGpsErr}) {
+    A(k, kZ) += 1.0;
+    A(k, kSurface) -= 1.0;
+    B(k) = -1.0;
+  }
+  x_ = A * x_ + B * h_mean_m;
+  P_ = A * P_ * A.transpose() + B * var_m2 * B.transpose();
+  P_ = 0.5 * (P_ + P_.transpose());
+  ++height_resets_;
+}
+
 AltitudeFusion::Outcome AltitudeFusion::update_ultrasonic(const UltrasonicSample& s) {
   if (!age_ok(s.t_s)) return Outcome::kRejectedStale;
   // Eq. 12: outside the valid range the reading is unbounded garbage.
   if (!std::isfinite(s.range_m) || s.range_m < p_.ultrasonic_min_m ||
       s.range_m > p_.ultrasonic_max_m) {
     step_n_ = 0;
+    reset_n_ = 0;
     us_suspect_ = true;
     us_run_ = 0;
     return Outcome::kRejectedRange;
@@ -274,15 +314,24 @@ AltitudeFusion::Outcome AltitudeFusion::update_ultrasonic(const UltrasonicSample
   const double h_c = s.range_m * cos_tilt_;  // slant range to vertical height
   const double h_now = h_c + x_[kVz] * age;  // compensated to now by the predicted motion
   double mean, var;
+  // A reading that implies a step beyond surface_step_max_m: garbage, unless enough of them
+  // agree (then the height was wrong: height_reset_count).
+  const auto impossible_step = [&](Outcome otherwise) {
+    step_n_ = 0;
+    if (!collect_height_reset(h_now, &mean, &var)) return otherwise;
+    reset_height(mean, var);
+    low_set_ = true;
+    us_suspect_ = false;
+    us_run_ = 0;
+    return Outcome::kHeightReset;
+  };
   if (!low_set_) {
     // Eq. 15 set in force: the reading is only a candidate for acquiring the surface below
     // (coming down into range). step_count agreeing in-range readings that imply a plausible
     // surface switch to the eq. 17 set and re-reference s (s was not observed up there).
     const double implied_jump = std::abs((x_[kZ] - h_now) - x_[kSurface]);
-    if (implied_jump > p_.surface_step_max_m) {
-      step_n_ = 0;
-      return Outcome::kRejectedSet;
-    }
+    if (implied_jump > p_.surface_step_max_m) return impossible_step(Outcome::kRejectedSet);
+    reset_n_ = 0;
     if (!collect_step(h_now, &mean, &var)) return Outcome::kRejectedSet;
     rereference_surface(mean, var);
     low_set_ = true;
@@ -295,6 +344,7 @@ AltitudeFusion::Outcome AltitudeFusion::update_ultrasonic(const UltrasonicSample
   double r, S;
   residual(H, h_c, R, &r, &S);
   if (std::abs(r) <= p_.gate_sigma * std::sqrt(S)) {
+    reset_n_ = 0;
     step_n_ = 0;
     // After garbage, a reading that happens to fall inside the gate is not trusted until
     // step_count consecutive readings pass it (the sensor is back on the surface).
@@ -307,6 +357,7 @@ AltitudeFusion::Outcome AltitudeFusion::update_ultrasonic(const UltrasonicSample
   }
   if (std::abs(r) < p_.step_min_m) {
     step_n_ = 0;
+    reset_n_ = 0;
     if (us_suspect_) {  // still re-confirming after garbage: hold it
       us_run_ = 0;
       return Outcome::kStepPending;
@@ -319,10 +370,8 @@ AltitudeFusion::Outcome AltitudeFusion::update_ultrasonic(const UltrasonicSample
   // consecutive agreeing values re-reference the surface instead of moving z.
   us_suspect_ = true;
   us_run_ = 0;
-  if (std::abs(r) > p_.surface_step_max_m) {
-    step_n_ = 0;
-    return Outcome::kStepPending;
-  }
+  if (std::abs(r) > p_.surface_step_max_m) return impossible_step(Outcome::kStepPending);
+  reset_n_ = 0;
   if (!collect_step(h_now, &mean, &var)) return Outcome::kStepPending;
   rereference_surface(mean, var);
   us_suspect_ = false;

@@ -364,6 +364,7 @@ void Recorder::finish(const Outcome& outcome, const flight::FlightStack& fs, Jso
   alt["fused_h_surface_rmse_m"] = fused_h_err_.rmse_m();
   alt["fused_h_surface_max_m"] = fused_h_err_.max_abs_m;
   alt["by_sensor"] = alt_metrics_.json();
+  alt["height_resets"] = fs.altitude_height_resets();  // see height_reset_count
   summary["altitude_fusion"] = alt;
   if (!world_.route().empty()) {
     // Path following (seed 003, issue 14): null where there is nothing to measure.

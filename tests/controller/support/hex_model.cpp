@@ -224,7 +224,7 @@ LandingRunResult run_landing(const LandingRunConfig& cfg) {
     vision.update(t, model.X_WB(), X_WP);
     if (i % cfg.inner_every == 0) {
       for (const PlatformObservation& obs : vision.deliver(t)) ctl.on_vision(obs);
-      if (cfg.feed) cfg.feed(t, ctl);
+      if (cfg.feed) cfg.feed(t, model, ctl);
       NavState nav = model.nav(t);
       const double dt_ctl = cfg.physics_dt_s * cfg.inner_every;
       pos_bias += white3(nn.pos_walk_m_per_sqrt_s * std::sqrt(dt_ctl));

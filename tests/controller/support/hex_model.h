@@ -145,7 +145,7 @@ struct LandingRunConfig {
   std::function<void(double t_s, const HexModel&, const LandingController&)> on_step;
   /// optional: called before each controller step, to feed it further inputs (e.g. the
   /// platform's broadcast) from the truth
-  std::function<void(double t_s, LandingController&)> feed;
+  std::function<void(double t_s, const HexModel&, LandingController&)> feed;
 };
 
 struct LandingRunResult {

@@ -321,6 +321,10 @@ struct LandingParams {
                                           ///< search_expand_after_s after the vehicle first
                                           ///< came this close to it (m): ~ the view's
                                           ///< narrow half-width at 6 m
+  double telemetry_search_height_m{6.0}; ///< ... flown at least this high above the surface
+                                          ///< below (by the fused altitude) (m): the view's
+                                          ///< narrow half-width at 6 m (~3 m) covers the
+                                          ///< broadcast's error; a 2 m search sees ~1 m
   // Bounded landing decision (issue 10). The geometry is the flight software's own belief,
   // nominal copies of models/cart.xml and models/hexarotor.xml (like gear_height_m).
   double platform_half_size_m{0.9};       ///< half the side of the square landing top (m):
@@ -444,6 +448,7 @@ void visit_fields(V& v, LandingParams& p) {
   v("search_max_height_m", p.search_max_height_m);
   v("telemetry_max_age_s", p.telemetry_max_age_s);
   v("telemetry_arrive_radius_m", p.telemetry_arrive_radius_m);
+  v("telemetry_search_height_m", p.telemetry_search_height_m);
   v("platform_half_size_m", p.platform_half_size_m);
   v("skid_half_spread_m", p.skid_half_spread_m);
   v("skid_half_length_m", p.skid_half_length_m);

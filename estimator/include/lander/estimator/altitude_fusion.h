@@ -79,6 +79,14 @@ struct AltitudeFusionParams {
   int step_count{3};
   double step_agree_m{0.05};
   double surface_step_max_m{2.0};
+  // Height reset: the world under the vehicle is the ground or the platform, never a step of
+  // more than surface_step_max_m above the surface the filter believes. When this many
+  // consecutive in-range ultrasonic readings agree (each within step_agree_m of the previous,
+  // compensated by the estimated climb rate; 20 Hz: 1 s) on such a step, it is the height
+  // that is wrong (a degraded GPS's vertical error taken in at the start), not the world: the
+  // height is set from the readings over the surface believed, the barometer-bias and GPS-
+  // error states take the difference, and the eq. 17 set comes in force. 0 = off.
+  int height_reset_count{20};
   // Latency compensation: a sample older than this is dropped (s).
   double max_sample_age_s{0.5};
 
@@ -115,6 +123,7 @@ void visit_fields(V& v, AltitudeFusionParams& p) {
   v("step_count", p.step_count);
   v("step_agree_m", p.step_agree_m);
   v("surface_step_max_m", p.surface_step_max_m);
+  v("height_reset_count", p.height_reset_count);
   v("max_sample_age_ms", p.max_sample_age_s, 1e-3);
 }
 
@@ -177,6 +186,7 @@ class AltitudeFusion {
     kRejectedStale,  ///< sample older than max_sample_age_s, or from the future
     kStepPending,    ///< range residual held by the surface-step detector
     kSurfaceStep,    ///< surface re-referenced (platform edge)
+    kHeightReset,    ///< height set from agreeing range readings (height_reset_count)
   };
   static constexpr int kZ = 0, kVz = 1, kBaroBias = 2, kAccelBias = 3, kSurface = 4, kPlane = 5,
                        kGpsErr = 6;
@@ -218,6 +228,7 @@ class AltitudeFusion {
   AltitudeEstimate estimate() const;
   double time_s() const { return t_s_; }
   bool ultrasonic_set_active() const { return low_set_; }  // eq. 17 set in force
+  long height_resets() const { return height_resets_; }     // see height_reset_count
   const Vec& x() const { return x_; }
   const Mat& P() const { return P_; }
   const AltitudeFusionParams& params() const { return p_; }
@@ -249,6 +260,15 @@ class AltitudeFusion {
   double cos_tilt_{1.0};
   std::array<double, 8> step_buf_{};
   int step_n_{0};
+  // Height reset (height_reset_count): consecutive agreeing readings that imply an impossible
+  // surface step, their sum and sum of squares, and the last one.
+  int reset_n_{0};
+  double reset_sum_{0.0}, reset_sum2_{0.0}, reset_last_{0.0};
+  // Counts one such reading; true (with the mean and its variance) once there are enough.
+  bool collect_height_reset(double h_now_m, double* mean_m, double* var_m2);
+  // Sets the height to the surface + h_mean_m (see height_reset_count).
+  void reset_height(double h_mean_m, double var_m2);
+  long height_resets_{0};
   std::array<int, 3> rejects_{};  // consecutive outlier rejections: baro, GPS, vision
   bool us_suspect_{false};  // garbage seen since the last trusted ultrasonic reading
   int us_run_{0};           // consecutive in-gate readings while suspect

@@ -79,6 +79,7 @@ class FlightStack {
   // State for the recorder (no truth in here).
   bool altitude_started() const { return fusion_started_; }  ///< fusion has an estimate
   AltitudeEstimate altitude() const { return fusion_.estimate(); }
+  long altitude_height_resets() const { return fusion_.height_resets(); }  ///< height_reset_count
   // The navigation state the controller flies on: the navigation filter's, with the
   // altitude fusion's height and climb rate once it has an estimate
   // (navigation.height_from_altitude_fusion).
