@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <vector>
 
@@ -21,6 +22,25 @@ constexpr double kRestOffsetTolM = 0.08;
 
 using lander::test::slurp;
 
+// The last row of a run's trace.csv: a column's value by name (a missing column fails the test
+// and reads NaN).
+std::function<double(const std::string&)> last_trace_row(const std::string& path) {
+  std::ifstream trace(path);
+  std::string header, line, last;
+  std::getline(trace, header);
+  while (std::getline(trace, line)) last = line;
+  std::vector<std::string> cols, vals;
+  for (std::stringstream hs(header); std::getline(hs, line, ',');) cols.push_back(line);
+  for (std::stringstream ls(last); std::getline(ls, line, ',');) vals.push_back(line);
+  return [cols, vals](const std::string& name) {
+    for (std::size_t i = 0; i < cols.size() && i < vals.size(); ++i) {
+      if (cols[i] == name) return std::stod(vals[i]);
+    }
+    ADD_FAILURE() << "no column " << name;
+    return std::nan("");
+  };
+}
+
 TEST(LandingIntegration, ShortLandingOnTheStaticPlatformTouchesDownAtTheCentre) {
   const std::string dir = lander::test::make_temp_dir("lander_land");
   std::ofstream(dir + "/s.yaml") << "name: short_static_landing\n"
@@ -36,18 +56,7 @@ TEST(LandingIntegration, ShortLandingOnTheStaticPlatformTouchesDownAtTheCentre) 
   EXPECT_TRUE(lander::test::bool_at(summary, "landed")) << text;
   EXPECT_LT(lander::test::number_at(summary, "touchdown_offset_m"), kTouchdownOffsetTolM) << text;
   // Truth from the trace's last row: the vehicle rests over the platform centre.
-  std::ifstream trace(dir + "/out/trace.csv");
-  std::string header, line, last;
-  std::getline(trace, header);
-  while (std::getline(trace, line)) last = line;
-  std::vector<std::string> cols, vals;
-  for (std::stringstream hs(header); std::getline(hs, line, ',');) cols.push_back(line);
-  for (std::stringstream ls(last); std::getline(ls, line, ',');) vals.push_back(line);
-  auto col = [&](const std::string& name) {
-    for (std::size_t i = 0; i < cols.size(); ++i) if (cols[i] == name) return std::stod(vals.at(i));
-    ADD_FAILURE() << "no column " << name;
-    return 0.0;
-  };
+  const auto col = last_trace_row(dir + "/out/trace.csv");
   const double dx = col("x_WB_m") - col("x_WP_m"), dy = col("y_WB_m") - col("y_WP_m");
   EXPECT_LT(std::hypot(dx, dy), kRestOffsetTolM);
   EXPECT_LT(std::abs(col("z_WB_m") - col("z_WP_m") - 0.25), 0.02) << "not resting on its skids";
@@ -69,18 +78,7 @@ constexpr double kBroadcastAcquiredByS = 10.0;
 constexpr double kOutOfViewM = 8.0;
 
 double last_row_distance(const std::string& trace_path) {
-  std::ifstream trace(trace_path);
-  std::string header, line, last;
-  std::getline(trace, header);
-  while (std::getline(trace, line)) last = line;
-  std::vector<std::string> cols, vals;
-  for (std::stringstream hs(header); std::getline(hs, line, ',');) cols.push_back(line);
-  for (std::stringstream ls(last); std::getline(ls, line, ',');) vals.push_back(line);
-  auto col = [&](const std::string& name) {
-    for (std::size_t i = 0; i < cols.size(); ++i) if (cols[i] == name) return std::stod(vals.at(i));
-    ADD_FAILURE() << "no column " << name;
-    return std::nan("");
-  };
+  const auto col = last_trace_row(trace_path);
   return std::hypot(col("x_WB_m") - col("x_WP_m"), col("y_WB_m") - col("y_WP_m"));
 }
 
