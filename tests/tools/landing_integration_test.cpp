@@ -70,7 +70,7 @@ TEST(LandingIntegration, ShortLandingOnTheStaticPlatformTouchesDownAtTheCentre) 
 
 // The touchdown offset the campaigns count a moving-cart landing within (offset_limit_m).
 constexpr double kMovingCartOffsetTolM = 0.10;
-// With the broadcast the vehicle acquires the target ~6.5 s in (README); the run without it
+// With the broadcast the vehicle acquires the target ~6 s in (README); the run without it
 // has not by 12 s. 10 s separates the two with room either side.
 constexpr double kBroadcastAcquiredByS = 10.0;
 // Without the broadcast the vehicle sweeps near its start while the cart drives away: after
