@@ -94,9 +94,8 @@ void LandingController::on_platform_telemetry(const GpsSample& g) {
     ++rejected_inputs_;
     return;
   }
-  if (have_broadcast_ && g.t_s <= broadcast_.t_s) return;  // out of order: keep the newer
+  if (broadcast_ && g.t_s <= broadcast_->t_s) return;  // out of order: keep the newer
   broadcast_ = g;
-  have_broadcast_ = true;
   ++telemetry_received_;
 }
 
@@ -235,11 +234,11 @@ void LandingController::expand_search(double t_exp_s, Setpoint* sp) {
 bool LandingController::broadcast_platform(double t_s, Eigen::Vector2d* p,
                                            Eigen::Vector2d* v) const {
   const double max_age = p_.landing.telemetry_max_age_s;
-  if (!have_broadcast_ || max_age <= 0.0) return false;
-  const double age = t_s - broadcast_.t_s;
+  if (!broadcast_ || max_age <= 0.0) return false;
+  const double age = t_s - broadcast_->t_s;
   if (age < 0.0 || age > max_age) return false;
-  *v = broadcast_.v_W_mps.head<2>();
-  *p = broadcast_.p_W_m.head<2>() + age * *v;
+  *v = broadcast_->v_W_mps.head<2>();
+  *p = broadcast_->p_W_m.head<2>() + age * *v;
   return true;
 }
 

@@ -16,6 +16,7 @@
 #include <exception>
 #include <iostream>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <utility>
 
@@ -340,9 +341,13 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
     // ---- sensors -> flight stack ----
     if (vision.pending() && vision.pending_deliver_t() <= tn + 1e-12) finish_vision();  // due now
     const auto tc0 = Clock::now();
-    const Eigen::Vector3d p_WP = world.X_WP().translation();
-    const PlatformTruth platform{tn, p_WP, world.cart_point_velocity_W(p_WP)};
-    SensorSuite::Sampled smp = sensors.sample(truth, &platform);
+    // The platform's truth only when its broadcast samples now (not on every physics step).
+    std::optional<PlatformTruth> platform;
+    if (sensors.platform_telemetry().due(tn)) {
+      const Eigen::Vector3d p_WP = world.X_WP().translation();
+      platform = PlatformTruth{tn, p_WP, world.cart_point_velocity_W(p_WP)};
+    }
+    SensorSuite::Sampled smp = sensors.sample(truth, platform ? &*platform : nullptr);
     recorder.on_samples(smp, truth);
     corrupt_on_the_wire(F, tn, smp);
     sensors.transmit(smp);

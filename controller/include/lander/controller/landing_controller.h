@@ -17,6 +17,7 @@
 
 #include <array>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -316,8 +317,7 @@ class LandingController {
   LandingDecisionLog decisions_;
   std::vector<Reacquisition> reacquisitions_;
   // The platform's broadcast (on_platform_telemetry).
-  bool have_broadcast_{false};
-  GpsSample broadcast_;              // the newest accepted message
+  std::optional<GpsSample> broadcast_;  // the newest accepted message
   long telemetry_received_{0}, telemetry_search_steps_{0};
   bool broadcast_following_{false};  // the follow point flies to the broadcast
   double broadcast_arrived_t_{std::numeric_limits<double>::quiet_NaN()};  // this search came
