@@ -358,7 +358,28 @@ void LandingController::check_reacquired(double t_s) {
 double LandingController::search_min_z(const NavState& nav) const {
   const LandingParams& L = p_.landing;
   if (!altitude_.valid) return L.search_min_height_m;
-  return nav.p_W_m.z() + (L.search_min_height_m - altitude_.h_surface_m);
+  const double by_fusion = nav.p_W_m.z() + (L.search_min_height_m - altitude_.h_surface_m);
+  if (!std::isfinite(altitude_.clearance_m)) return by_fusion;
+  return std::max(by_fusion, nav.p_W_m.z() + (L.search_min_height_m - altitude_.clearance_m));
+}
+
+// A fused height metres off (a degraded GPS taken in at the start, wandering with its error)
+// once held the search 1 m over the ground while it believed 4.5 m: the floor is re-applied
+// every step, and the ultrasonic's own clearance takes part in it.
+void LandingController::keep_min_height(double t_s, const NavState& nav) {
+  const double z_min = search_min_z(nav);
+  if (hold_p_.z() >= z_min) return;
+  if (!low_clearance_logged_ && std::isfinite(altitude_.clearance_m) &&
+      altitude_.clearance_m < p_.landing.search_min_height_m &&
+      altitude_.clearance_m < altitude_.h_surface_m) {
+    low_clearance_logged_ = true;
+    log_event(t_s, "low_clearance",
+              fmt::format("ultrasonic clearance {:.2f} m (fused height above the surface {:.2f} m) "
+                          "under search_min_height_m {:.2f} m in {}: climbing",
+                          altitude_.clearance_m, altitude_.h_surface_m,
+                          p_.landing.search_min_height_m, to_string(mode_)));
+  }
+  hold_p_.z() = z_min;
 }
 
 Setpoint LandingController::hold(const Eigen::Vector3d& p) const {
@@ -372,6 +393,7 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
                                   const NavState& nav) {
   transitions_.push_back({t_s, mode_, to, reason});
   const LandingParams& L = p_.landing;
+  low_clearance_logged_ = false;
   // Entry actions.
   switch (to) {
     case Mode::kSearch: {
@@ -552,6 +574,7 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
                 nav);
         return run_mode_machine(t_s, nav);
       }
+      keep_min_height(t_s, nav);
       // After a loss: fly to where the motion model predicts the platform instead of holding
       // while the cart drives away, then widen the search around it.
       if (search_after_loss_) return search_after_loss(t_s);
@@ -891,6 +914,7 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       return hold(nav.p_W_m);
 
     case Mode::kAborted:
+      keep_min_height(t_s, nav);
       return hold(hold_p_);
 
     case Mode::kFollowPath: {
@@ -911,6 +935,7 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
     }
 
     case Mode::kGoAround: {
+      keep_min_height(t_s, nav);
       if (std::abs(nav.p_W_m.z() - hold_p_.z()) < kGoAroundReachedBand_m) {
         if (tracker_.keyframe_streak() >= L.reacquire_frames && in_view(t_s, L.loss_timeout_s)) {
           switch_to(t_s, Mode::kObserve, "go-around altitude reached, target in view", nav);

@@ -376,3 +376,78 @@ TEST(SearchWithBroadcast, StaleNoFixAndNonFiniteMessagesAreNotUsed) {
 
 }  // namespace
 }  // namespace lander::ctl::test
+
+// The search's minimum height is kept every step, by the fused height and by the ultrasonic's
+// own clearance (a far-start campaign run held its search 1 m over the ground while its
+// fused height, wrong by metres, said 4.5 m; another started its search at a believed 0 m).
+namespace lander::ctl::test {
+namespace {
+
+// A platform far out of view: the search holds and sweeps; the altitude fed is `believed`
+// metres over the ground for a vehicle truly at m.p.z(), with the ultrasonic's clearance
+// (the truth) or none.
+struct FloorRun {
+  double z_end_m{0.0};
+  int low_clearance_events{0};
+};
+FloorRun search_floor_run(double start_z_m, double believed_offset_m, bool clearance) {
+  LandingRunConfig cfg;
+  cfg.platform.p0_W_m = Eigen::Vector3d(200.0, 0.0, 0.8);
+  cfg.platform.v_W_mps.setZero();
+  cfg.start_W_m = Eigen::Vector3d(0.0, 0.0, start_z_m);
+  cfg.max_time_s = 6.0;  // inside the in-place sweep (search_spiral_after_s = 8 s)
+  cfg.feed = [=](double t, const HexModel& m, LandingController& c) {
+    AltitudeEstimate a;
+    a.t_s = t;
+    a.valid = true;
+    a.z_W_m = m.p.z();
+    a.vz_W_mps = m.v.z();
+    a.h_surface_m = m.p.z() + believed_offset_m;  // the fused height, off by this
+    if (clearance) a.clearance_m = m.p.z();       // over the ground (z = 0)
+    c.on_altitude(a);
+  };
+  FloorRun out;
+  cfg.on_step = [&](double, const HexModel& m, const LandingController& c) {
+    out.z_end_m = m.p.z();
+    out.low_clearance_events = 0;
+    for (const LandingEvent& e : c.decision_log().events) {
+      out.low_clearance_events += e.what == "low_clearance";
+    }
+  };
+  const LandingRunResult r = run_landing(cfg);
+  EXPECT_FALSE(r.contact);
+  return out;
+}
+
+// The height loop's settling after a climb of a metre or two in 6 s (the same band as the
+// broadcast search's climb above).
+constexpr double kFloorSettle_m = 0.3;
+
+TEST(SearchFloor, TheUltrasonicsClearanceLiftsASearchHeldLowByAHeightThatIsWrong) {
+  const double min_h = ControllerParams{}.landing.search_min_height_m;
+  // Truly 1.2 m up, believed 4.5 m: with the clearance, up to search_min_height_m, once
+  // logged; without it (the fusion alone), held at 1.2 m.
+  const FloorRun with = search_floor_run(1.2, 3.3, true);
+  EXPECT_NEAR(with.z_end_m, min_h, kFloorSettle_m);
+  EXPECT_EQ(with.low_clearance_events, 1);
+  const FloorRun without = search_floor_run(1.2, 3.3, false);
+  EXPECT_NEAR(without.z_end_m, 1.2, kFloorSettle_m);
+  EXPECT_EQ(without.low_clearance_events, 0);
+  // High enough by both: nothing happens.
+  const FloorRun high = search_floor_run(5.0, 0.0, true);
+  EXPECT_NEAR(high.z_end_m, 5.0, kFloorSettle_m);
+  EXPECT_EQ(high.low_clearance_events, 0);
+}
+
+// The first search (entered at start, not by a transition) takes the floor of the fused
+// height too: believed 0.5 m over the ground at a true 6 m, it climbs search_min_height_m -
+// 0.5 m. No event: it is the fused height that asks for it.
+TEST(SearchFloor, TheFirstSearchKeepsTheFusedMinimumHeight) {
+  const double min_h = ControllerParams{}.landing.search_min_height_m;
+  const FloorRun r = search_floor_run(6.0, 0.5 - 6.0, false);
+  EXPECT_NEAR(r.z_end_m, 6.0 + (min_h - 0.5), kFloorSettle_m);
+  EXPECT_EQ(r.low_clearance_events, 0);
+}
+
+}  // namespace
+}  // namespace lander::ctl::test

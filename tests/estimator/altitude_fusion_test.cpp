@@ -340,5 +340,120 @@ TEST(AltitudeFusion, GarbageAndShortRunsNeverResetTheHeight) {
   EXPECT_NEAR(f.estimate().z_W_m, 6.0, 1e-6);
 }
 
+// The far-start campaign's ground contact (seed 83117, run 0014): a GPS error of metres taken
+// in at the start put the believed height at 1.8 m while the vehicle flew at 6 m. The eq. 17
+// set then drops the barometer for the ultrasonic, which sees nothing in range up there; the
+// GPS alone (its error wandering with it) carried the height, and a 3 m/s descent went
+// unseen until the gear hit the ground. baro_fallback_s after the set came in force with no
+// trusted reading, the barometer is fused again. Here the vehicle descends 2 m (the IMU's
+// acceleration exact) while the GPS reads a constant height (its error growing by the
+// descent, as a 10 s Gauss-Markov error can): with the fallback the fused height follows the
+// barometer down; with it off (the paper's switch as is) it stays with the GPS.
+struct DescentSeen {
+  double descent_m{0.0};       // fused height's change over the 2 s descent (truly 2 m)
+  double max_vz_error_mps{0.0};  // worst fused vertical velocity error in it
+  long fallbacks{0};
+};
+DescentSeen descent_seen(double baro_fallback_s) {
+  AltitudeFusionParams p;
+  p.baro_fallback_s = baro_fallback_s;
+  AltitudeFusion f(p);
+  constexpr double kBelieved_m = 1.8, kTrue0_m = 6.0;
+  f.reset(0.0, kBelieved_m, 0.0, 0.0, 1.5);
+  EXPECT_TRUE(f.ultrasonic_set_active());
+  double z = kTrue0_m, vz = 0.0;
+  DescentSeen out;
+  double z_fused_before = 0.0;
+  const double dt = 0.004;
+  for (int k = 1; k <= 1250; ++k) {  // 5 s
+    const double t = k * dt;
+    const double a = (t > 3.0 && t <= 4.0) ? -2.0 : (t > 4.0 && t <= 5.0) ? 2.0 : 0.0;
+    z += vz * dt + 0.5 * a * dt * dt;
+    vz += a * dt;
+    f.predict(t, a);
+    if (k % 5 == 0) f.update_baro(baro_at(t, z));
+    if (k % 50 == 0) {
+      GpsSample g;
+      g.t_s = t;
+      g.p_W_m = Eigen::Vector3d(0.0, 0.0, kBelieved_m);
+      f.update_gps(g);
+    }
+    if (k % 12 == 0) f.update_ultrasonic(us_at(t, 1e6));  // nothing in range
+    if (k == 750) z_fused_before = f.estimate().z_W_m;  // t = 3 s
+    if (t > 3.0) {
+      out.max_vz_error_mps = std::max(out.max_vz_error_mps, std::abs(f.estimate().vz_W_mps - vz));
+    }
+  }
+  EXPECT_NEAR(z, kTrue0_m - 2.0, 1e-9);
+  out.descent_m = z_fused_before - f.estimate().z_W_m;
+  out.fallbacks = f.baro_fallback_updates();
+  return out;
+}
+
+TEST(AltitudeFusion, BarometerReturnsWhileTheRangerSeesNothingInItsSet) {
+  const DescentSeen with = descent_seen(1.0);
+  const DescentSeen without = descent_seen(0.0);
+  // Every 50 Hz barometer sample from t = 1 s (baro_fallback_s after the set came in force).
+  EXPECT_NEAR(with.fallbacks, 200, 1);
+  EXPECT_EQ(without.fallbacks, 0);
+  // The IMU's acceleration is exact and the barometer noise-free: the velocity is seen to
+  // centimetres per second. Without the barometer the flat GPS pulled it 0.9 m/s off.
+  constexpr double kVzTolerance_mps = 0.05;
+  EXPECT_LT(with.max_vz_error_mps, kVzTolerance_mps);
+  EXPECT_GT(without.max_vz_error_mps, 0.5);
+  // The height's change: the barometer pins z + b, the flat GPS moves the split between them
+  // as the filter's own GPS model (1.2 m, 10 s) allows, so part of the 2 m goes to the bias
+  // (1.48 m seen); without the barometer none is seen.
+  constexpr double kMinDescentSeen_m = 1.2;
+  EXPECT_GT(with.descent_m, kMinDescentSeen_m);
+  EXPECT_LT(std::abs(without.descent_m), 0.2);
+}
+
+// The clearance (the controller's floor in the search): only clearance_count readings in a
+// row whose implied surfaces agree give one, so garbage (eq. 12) never does; readings taken
+// while descending at 1.5 m/s agree (7.5 cm apart, beyond step_agree_m as raw heights); one
+// reading out of range ends it. The same chain resets a height that is wrong by 2.5 m during
+// that descent.
+TEST(AltitudeFusion, ClearanceAndHeightResetFromAgreeingReadingsAlsoInADescent) {
+  AltitudeFusionParams p;
+  AltitudeFusion f(p);
+  f.reset(0.0, 6.0, 0.0);
+  double t = 0.0;
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> in_range(p.ultrasonic_min_m, p.ultrasonic_max_m);
+  for (int k = 0; k < 2000; ++k) {
+    t += 0.05;
+    f.predict(t, 0.0);
+    f.update_ultrasonic(us_at(t, in_range(rng)));
+    EXPECT_FALSE(std::isfinite(f.estimate().clearance_m)) << k;
+  }
+  // Believed 5.5 m, truly 3.0 m, both descending at 1.5 m/s (the IMU gives the motion).
+  constexpr double kVz_mps = -1.5;
+  f.reset(t, 5.5, 0.0, kVz_mps);
+  double h = 3.0;
+  int resets_at = -1;
+  for (int k = 0; k < p.height_reset_count; ++k) {
+    t += 0.05;
+    h += kVz_mps * 0.05;
+    f.predict(t, 0.0);
+    const O o = f.update_ultrasonic(us_at(t, h));
+    if (o == O::kHeightReset) resets_at = k;
+    const double c = f.estimate().clearance_m;
+    if (k + 1 < p.clearance_count) {
+      EXPECT_FALSE(std::isfinite(c)) << k;
+    } else if (o != O::kHeightReset) {
+      EXPECT_NEAR(c, h, 1e-6) << k;  // exact readings, exact motion
+      EXPECT_NEAR(f.estimate().h_surface_m, h + 2.5, 1e-6) << k;  // not yet reset
+    }
+  }
+  EXPECT_EQ(resets_at, p.height_reset_count - 1);
+  EXPECT_NEAR(f.estimate().h_surface_m, h, 1e-6);
+  EXPECT_NEAR(f.estimate().clearance_m, h, 1e-6);
+  t += 0.05;
+  f.predict(t, 0.0);
+  EXPECT_EQ(f.update_ultrasonic(us_at(t, 1e6)), O::kRejectedRange);
+  EXPECT_FALSE(std::isfinite(f.estimate().clearance_m));
+}
+
 }  // namespace
 }  // namespace lander

@@ -57,6 +57,8 @@ void AltitudeFusionParams::validate() const {
   require(step_count >= 1 && step_count <= 8, "step_count", "must be in 1..8");
   require(step_agree_m > 0, "step_agree_m", "must be > 0");
   require(height_reset_count >= 0, "height_reset_count", "must be >= 0");
+  require(clearance_count >= 0, "clearance_count", "must be >= 0");
+  require(baro_fallback_s >= 0, "baro_fallback_s", "must be >= 0");
   require(surface_step_max_m > step_min_m, "surface_step_max_m", "must be > step_min_m");
   require(max_sample_age_s > 0, "max_sample_age_ms", "must be > 0");
 }
@@ -90,7 +92,10 @@ void AltitudeFusion::reset(double t_s, double z_W_m, double surface_W_m, double 
   P_(kPlane, kPlane) = p_.platform_height_std_m * p_.platform_height_std_m;
   P_(kGpsErr, kGpsErr) = p_.gps_std_m * p_.gps_std_m;
   low_set_ = (z_W_m - surface_W_m) < p_.switch_height_m;
+  us_trusted_t_s_ = t_s;
   step_n_ = 0;
+  reset_n_ = 0;
+  clear_n_ = 0;
   us_suspect_ = false;
   us_run_ = 0;
   rejects_.fill(0);
@@ -137,7 +142,9 @@ void AltitudeFusion::predict(double t_s, double az_W_mps2) {
   const double a_g = std::exp(-dt / p_.gps_corr_time_s);
   F(kGpsErr, kGpsErr) = a_g;
   const double a = az_W_mps2 - x_[kAccelBias];
-  x_[kZ] += x_[kVz] * dt + 0.5 * a * dt * dt;
+  const double dz = x_[kVz] * dt + 0.5 * a * dt * dt;
+  x_[kZ] += dz;
+  odo_z_ += dz;
   x_[kVz] += a * dt;
   x_[kGpsErr] *= a_g;
   // Q: white acceleration (density q) into [z, vz]; random walks on the other states.
@@ -161,8 +168,13 @@ void AltitudeFusion::predict(double t_s, double az_W_mps2) {
 // out of range that reading is garbage, eq. 12, and may well be < 3 m, so we do not.)
 void AltitudeFusion::update_set() {
   const double h = x_[kZ] - x_[kSurface];
-  if (low_set_ && h > p_.switch_height_m + p_.switch_hysteresis_m) low_set_ = false;
-  if (!low_set_ && h < p_.switch_height_m - p_.switch_hysteresis_m) low_set_ = true;
+  if (low_set_ && h > p_.switch_height_m + p_.switch_hysteresis_m) set_low(false);
+  if (!low_set_ && h < p_.switch_height_m - p_.switch_hysteresis_m) set_low(true);
+}
+
+void AltitudeFusion::set_low(bool low) {
+  if (low && !low_set_) us_trusted_t_s_ = t_s_;  // the fallback's clock starts with the set
+  low_set_ = low;
 }
 
 bool AltitudeFusion::age_ok(double t_sample_s) const {
@@ -216,8 +228,14 @@ AltitudeFusion::Outcome AltitudeFusion::gated_update(const Row& H, double z, dou
 AltitudeFusion::Outcome AltitudeFusion::update_baro(const BaroSample& s) {
   if (!age_ok(s.t_s)) return Outcome::kRejectedStale;
   if (!(s.pressure_pa > 0) || !std::isfinite(s.pressure_pa)) return Outcome::kRejectedRange;
-  // Eq. 15 only: near the surface the downwash corrupts the baro (seed 004 sec. 4.2).
-  if (low_set_) return Outcome::kRejectedSet;
+  // Eq. 15 only: near the surface the downwash corrupts the baro (seed 004 sec. 4.2); unless
+  // the ultrasonic that replaces it has been silent for baro_fallback_s.
+  if (low_set_) {
+    if (!(p_.baro_fallback_s > 0) || t_s_ - us_trusted_t_s_ <= p_.baro_fallback_s) {
+      return Outcome::kRejectedSet;
+    }
+    ++baro_fallbacks_;
+  }
   const double h_q = isa_altitude_m(s.pressure_pa) - p_.baro_origin_msl_m;  // eq. 8
   return gated_update(row({{kZ, 1.0}, {kBaroBias, 1.0}}, t_s_ - s.t_s), h_q,
                       p_.baro_std_m * p_.baro_std_m, 0);
@@ -263,17 +281,20 @@ bool AltitudeFusion::collect_step(double h_now_m, double* mean_m, double* var_m2
 
 bool AltitudeFusion::collect_height_reset(double h_now_m, double* mean_m, double* var_m2) {
   if (p_.height_reset_count <= 0) return false;
-  // Each compensated reading within step_agree_m of the previous one (garbage does not chain).
-  if (reset_n_ > 0 && std::abs(h_now_m - reset_last_) > p_.step_agree_m) reset_n_ = 0;
+  // Each reading's implied surface within step_agree_m of the previous one's (garbage does
+  // not chain; a climb or descent does, the height's own motion taking the readings' change).
+  const double q = odo_z_ - h_now_m;
+  if (reset_n_ > 0 && std::abs(q - reset_last_) > p_.step_agree_m) reset_n_ = 0;
   if (reset_n_ == 0) reset_sum_ = reset_sum2_ = 0.0;
   ++reset_n_;
-  reset_sum_ += h_now_m;
-  reset_sum2_ += h_now_m * h_now_m;
-  reset_last_ = h_now_m;
+  reset_sum_ += q;
+  reset_sum2_ += q * q;
+  reset_last_ = q;
   if (reset_n_ < p_.height_reset_count) return false;
   const double n = reset_n_;
-  *mean_m = reset_sum_ / n;
-  const double spread2 = std::max(0.0, reset_sum2_ / n - *mean_m * *mean_m);
+  const double q_mean = reset_sum_ / n;
+  *mean_m = odo_z_ - q_mean;
+  const double spread2 = std::max(0.0, reset_sum2_ / n - q_mean * q_mean);
   *var_m2 = p_.ultrasonic_std_m * p_.ultrasonic_std_m / n + spread2;
   reset_n_ = 0;
   return true;
@@ -306,6 +327,7 @@ AltitudeFusion::Outcome AltitudeFusion::update_ultrasonic(const UltrasonicSample
       s.range_m > p_.ultrasonic_max_m) {
     step_n_ = 0;
     reset_n_ = 0;
+    clear_n_ = 0;
     us_suspect_ = true;
     us_run_ = 0;
     return Outcome::kRejectedRange;
@@ -313,6 +335,12 @@ AltitudeFusion::Outcome AltitudeFusion::update_ultrasonic(const UltrasonicSample
   const double age = std::max(0.0, t_s_ - s.t_s);
   const double h_c = s.range_m * cos_tilt_;  // slant range to vertical height
   const double h_now = h_c + x_[kVz] * age;  // compensated to now by the predicted motion
+  // The clearance chain, whatever the reading means for the surface state below.
+  const double q = odo_z_ - h_now;
+  if (clear_n_ > 0 && std::abs(q - clear_q_) > p_.step_agree_m) clear_n_ = 0;
+  ++clear_n_;
+  clear_q_ = q;
+  clear_t_s_ = s.t_s;
   double mean, var;
   // A reading that implies a step beyond surface_step_max_m: garbage, unless enough of them
   // agree (then the height was wrong: height_reset_count).
@@ -323,6 +351,7 @@ AltitudeFusion::Outcome AltitudeFusion::update_ultrasonic(const UltrasonicSample
     low_set_ = true;
     us_suspect_ = false;
     us_run_ = 0;
+    us_trusted_t_s_ = t_s_;
     return Outcome::kHeightReset;
   };
   if (!low_set_) {
@@ -337,6 +366,7 @@ AltitudeFusion::Outcome AltitudeFusion::update_ultrasonic(const UltrasonicSample
     low_set_ = true;
     us_suspect_ = false;
     us_run_ = 0;
+    us_trusted_t_s_ = t_s_;
     return Outcome::kSurfaceStep;
   }
   const double R = p_.ultrasonic_std_m * p_.ultrasonic_std_m;
@@ -353,6 +383,7 @@ AltitudeFusion::Outcome AltitudeFusion::update_ultrasonic(const UltrasonicSample
     us_run_ = 0;
     apply(H, r, R, 1.0);
     update_set();
+    us_trusted_t_s_ = t_s_;
     return Outcome::kAccepted;
   }
   if (std::abs(r) < p_.step_min_m) {
@@ -364,6 +395,7 @@ AltitudeFusion::Outcome AltitudeFusion::update_ultrasonic(const UltrasonicSample
     }
     apply(H, r, R, p_.gate_factor_n);  // eq. 27
     update_set();
+    us_trusted_t_s_ = t_s_;
     return Outcome::kGated;
   }
   // Large residual: a surface step (platform edge) or garbage. Not applied; step_count
@@ -376,6 +408,7 @@ AltitudeFusion::Outcome AltitudeFusion::update_ultrasonic(const UltrasonicSample
   rereference_surface(mean, var);
   us_suspect_ = false;
   update_set();
+  us_trusted_t_s_ = t_s_;
   return Outcome::kSurfaceStep;
 }
 
@@ -388,6 +421,10 @@ AltitudeEstimate AltitudeFusion::estimate() const {
   e.h_surface_m = x_[kZ] - x_[kSurface];
   e.baro_bias_m = x_[kBaroBias];
   e.var_m2 = P_(kZ, kZ);
+  if (p_.clearance_count > 0 && clear_n_ >= p_.clearance_count &&
+      t_s_ - clear_t_s_ <= p_.max_sample_age_s) {
+    e.clearance_m = odo_z_ - clear_q_;
+  }
   return e;
 }
 

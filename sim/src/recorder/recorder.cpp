@@ -365,6 +365,7 @@ void Recorder::finish(const Outcome& outcome, const flight::FlightStack& fs, Jso
   alt["fused_h_surface_max_m"] = fused_h_err_.max_abs_m;
   alt["by_sensor"] = alt_metrics_.json();
   alt["height_resets"] = fs.altitude_height_resets();  // see height_reset_count
+  alt["baro_fallback_updates"] = fs.altitude_baro_fallback_updates();  // see baro_fallback_s
   summary["altitude_fusion"] = alt;
   if (!world_.route().empty()) {
     // Path following (seed 003, issue 14): null where there is nothing to measure.

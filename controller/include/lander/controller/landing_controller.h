@@ -71,7 +71,9 @@ struct LandingEvent {
   /// the error within the gate widening towards the wide gate: descent into contact, the cut
   /// allowed within the wide gate), "committed_nominal" (the cut within the nominal gate),
   /// "cut" (motors cut, either gate), "landed" (contact), "go_around", "lost" (the target
-  /// lost high in approach: back to search), "aborted".
+  /// lost high in approach: back to search), "aborted", "low_clearance" (in search,
+  /// go-around or abort the ultrasonic's clearance, under search_min_height_m and under the
+  /// fused height, raised the held height; once per mode).
   std::string what;
   std::string reason;  ///< human-readable, with the figures that decided it
 };
@@ -214,9 +216,14 @@ class LandingController {
   double platform_z() const;  // platform height of the last fix, even after the history
                               // was dropped; 0 (ground) before the first
   Setpoint hold(const Eigen::Vector3d& p) const;
-  // Height in W that is search_min_height_m above the surface below (by the fused altitude;
-  // above the W origin plane without one) (m).
+  // Height in W that is search_min_height_m above the surface below (m): by the fused
+  // altitude (above the W origin plane without one), and by the ultrasonic's clearance where
+  // it has one (AltitudeEstimate::clearance_m: what is below, whatever the fusion believes).
   double search_min_z(const NavState& nav) const;
+  // Search, go-around and abort: raises the held height to search_min_z (every step, so a
+  // height estimate that was wrong cannot hold the vehicle low); logs a "low_clearance" event
+  // once per mode when the ultrasonic's clearance is what raises it.
+  void keep_min_height(double t_s, const NavState& nav);
   // Outward spiral t_spiral_s after it starts: offset from its centre and velocity relative
   // to it (both zero before it starts or with search_spiral_speed_mps = 0).
   void spiral_offset(double t_spiral_s, Eigen::Vector2d* off, Eigen::Vector2d* v) const;
@@ -320,6 +327,7 @@ class LandingController {
   std::optional<GpsSample> broadcast_;  // the newest accepted message
   long telemetry_received_{0}, telemetry_search_steps_{0};
   bool broadcast_following_{false};  // the follow point flies to the broadcast
+  bool low_clearance_logged_{false};  // keep_min_height's event, once per mode
   double broadcast_arrived_t_{std::numeric_limits<double>::quiet_NaN()};  // this search came
                                      // within telemetry_arrive_radius_m of it (s)
 };

@@ -59,6 +59,13 @@ struct AltitudeFusionParams {
   // ultrasonic set (eq. 17) is used, above it the baro set (eq. 15).
   double switch_height_m{3.0};
   double switch_hysteresis_m{0.1};
+  // The eq. 17 set takes the ultrasonic instead of the barometer. When the ultrasonic has
+  // given no trusted reading for this long in it (s: since the set came in force, or since
+  // the last), the barometer is fused again: a height believed low while the ranger sees
+  // nothing in range (metres of GPS error taken in at the start: the vehicle at 6 m) would
+  // otherwise follow the GPS alone, and a 3 m/s descent went unseen. 0 = never (the paper's
+  // switch as is).
+  double baro_fallback_s{1.0};
   // Ultrasonic readings outside [min, max] are rejected (seed 004 eq. 12: garbage).
   double ultrasonic_min_m{0.15};
   double ultrasonic_max_m{3.05};
@@ -81,12 +88,19 @@ struct AltitudeFusionParams {
   double surface_step_max_m{2.0};
   // Height reset: the world under the vehicle is the ground or the platform, never a step of
   // more than surface_step_max_m above the surface the filter believes. When this many
-  // consecutive in-range ultrasonic readings agree (each within step_agree_m of the previous,
-  // compensated by the estimated climb rate; 20 Hz: 1 s) on such a step, it is the height
+  // consecutive in-range ultrasonic readings agree (each implying a surface within step_agree_m
+  // of the previous one's, the readings' heights taken against the height's own motion in
+  // between, so a climb or descent chains; 20 Hz: 1 s) on such a step, it is the height
   // that is wrong (a degraded GPS's vertical error taken in at the start), not the world: the
   // height is set from the readings over the surface believed, the barometer-bias and GPS-
   // error states take the difference, and the eq. 17 set comes in force. 0 = off.
   int height_reset_count{20};
+  // Clearance (AltitudeEstimate::clearance_m): this many consecutive in-range readings that
+  // agree as above give the height over what is below, whatever the filter believes about
+  // the surface (the controller's floor in the search). |Cauchy| garbage (eq. 12) chains with
+  // a probability of about 1e-8 per reading at 5. It lapses when the last reading is older
+  // than max_sample_age_ms. 0 = never.
+  int clearance_count{5};
   // Latency compensation: a sample older than this is dropped (s).
   double max_sample_age_s{0.5};
 
@@ -113,6 +127,7 @@ void visit_fields(V& v, AltitudeFusionParams& p) {
   v("platform_height_std_m", p.platform_height_std_m);
   v("switch_height_m", p.switch_height_m);
   v("switch_hysteresis_m", p.switch_hysteresis_m);
+  v("baro_fallback_s", p.baro_fallback_s);
   v("ultrasonic_min_m", p.ultrasonic_min_m);
   v("ultrasonic_max_m", p.ultrasonic_max_m);
   v("gate_sigma", p.gate_sigma);
@@ -124,6 +139,7 @@ void visit_fields(V& v, AltitudeFusionParams& p) {
   v("step_agree_m", p.step_agree_m);
   v("surface_step_max_m", p.surface_step_max_m);
   v("height_reset_count", p.height_reset_count);
+  v("clearance_count", p.clearance_count);
   v("max_sample_age_ms", p.max_sample_age_s, 1e-3);
 }
 
@@ -229,6 +245,7 @@ class AltitudeFusion {
   double time_s() const { return t_s_; }
   bool ultrasonic_set_active() const { return low_set_; }  // eq. 17 set in force
   long height_resets() const { return height_resets_; }     // see height_reset_count
+  long baro_fallback_updates() const { return baro_fallbacks_; }  // see baro_fallback_s
   const Vec& x() const { return x_; }
   const Mat& P() const { return P_; }
   const AltitudeFusionParams& params() const { return p_; }
@@ -262,13 +279,28 @@ class AltitudeFusion {
   int step_n_{0};
   // Height reset (height_reset_count): consecutive agreeing readings that imply an impossible
   // surface step, their sum and sum of squares, and the last one.
+  // Their implied surfaces (odo_z_ - h) are summed, so a moving vehicle's readings agree.
   int reset_n_{0};
   double reset_sum_{0.0}, reset_sum2_{0.0}, reset_last_{0.0};
-  // Counts one such reading; true (with the mean and its variance) once there are enough.
+  // Counts one such reading; true (with the mean height now and its variance) once there are
+  // enough.
   bool collect_height_reset(double h_now_m, double* mean_m, double* var_m2);
+  // Clearance chain (clearance_count): consecutive in-range readings whose implied surfaces
+  // agree, and the last implied surface.
+  int clear_n_{0};
+  double clear_q_{0.0};
+  // The height's own motion, dead-reckoned by predict() only (the chains' reference: a
+  // measurement update or a reset moving z does not move what the readings saw).
+  double odo_z_{0.0};
+  double clear_t_s_{0.0};  // the last one's time
   // Sets the height to the surface + h_mean_m (see height_reset_count).
   void reset_height(double h_mean_m, double var_m2);
   long height_resets_{0};
+  // baro_fallback_s: when the ultrasonic was last trusted (or the eq. 17 set came in force),
+  // and the barometer samples fused in the set since.
+  double us_trusted_t_s_{0.0};
+  long baro_fallbacks_{0};
+  void set_low(bool low);
   std::array<int, 3> rejects_{};  // consecutive outlier rejections: baro, GPS, vision
   bool us_suspect_{false};  // garbage seen since the last trusted ultrasonic reading
   int us_run_{0};           // consecutive in-gate readings while suspect

@@ -2,6 +2,7 @@
 // measures (types.h); never from ground truth.
 #pragma once
 
+#include <limits>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -26,6 +27,11 @@ struct AltitudeEstimate {
   double h_surface_m{0.0};       ///< height of B above the surface below it (m)
   double baro_bias_m{0.0};       ///< estimated barometer bias (m)
   double var_m2{0.0};            ///< variance of z_W_m (m^2)
+  /// Height of B above whatever the ultrasonic sees below, by the newest chain of
+  /// clearance_count agreeing in-range readings, carried to t_s by the height's own motion;
+  /// NaN when the last readings do not form such a chain (out of range, garbage). Unlike
+  /// h_surface_m it does not depend on which surface the filter believes is below.
+  double clearance_m{std::numeric_limits<double>::quiet_NaN()};
 };
 
 // One vision measurement of the platform, as the controller receives it (after latency).

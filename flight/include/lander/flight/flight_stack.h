@@ -80,6 +80,7 @@ class FlightStack {
   bool altitude_started() const { return fusion_started_; }  ///< fusion has an estimate
   AltitudeEstimate altitude() const { return fusion_.estimate(); }
   long altitude_height_resets() const { return fusion_.height_resets(); }  ///< height_reset_count
+  long altitude_baro_fallback_updates() const { return fusion_.baro_fallback_updates(); }  ///< baro_fallback_s
   // The navigation state the controller flies on: the navigation filter's, with the
   // altitude fusion's height and climb rate once it has an estimate
   // (navigation.height_from_altitude_fusion).
