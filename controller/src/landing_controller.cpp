@@ -402,8 +402,7 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
       search_yaw0_ = yaw_hold_;
       // The history is kept: search flies to its prediction of the platform (see
       // search_predict_max_s) and a re-acquisition continues it.
-      hold_p_ = nav.p_W_m;
-      hold_p_.z() = std::max(hold_p_.z(), search_min_z(nav));
+      hold_p_ = nav.p_W_m;  // keep_min_height raises it in the search's first step
       search_after_loss_ = tracker_.has_fix();
       search_t_seen_ = search_after_loss_ ? tracker_.latest().t_s : t_s;
       search_centre_ = nav.p_W_m.head<2>();
@@ -492,9 +491,9 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
     }
     case Mode::kAborted: {
       // Straight up from here to the go-around height above the top, then hold.
+      // (keep_min_height adds the search's minimum height in the mode's first step.)
       hold_p_ = nav.p_W_m;
-      hold_p_.z() =
-          std::max({nav.p_W_m.z(), platform_z() + L.go_around_height_m, search_min_z(nav)});
+      hold_p_.z() = std::max(nav.p_W_m.z(), platform_z() + L.go_around_height_m);
       if (mode_ == Mode::kTouchdown) cascade_.reset();  // motors restart from idle
       break;
     }

@@ -302,9 +302,18 @@ TEST(SearchWithBroadcast, FliesToTheBroadcastPositionAndFindsTheCart) {
   EXPECT_NE(n.transitions.front().reason.find("target not found in"), std::string::npos);
 }
 
-// A broadcast older than telemetry_max_age_s is not flown to: the search sweeps in place
-// (as without one) for search_spiral_after_s; a message without a fix (valid = false) is
-// ignored and one with a non-finite position is dropped and counted.
+// The fused altitude of the model's vehicle over the ground (z = 0), with the height above
+// the surface believed `offset_m` higher than it is (0: exact).
+AltitudeEstimate altitude_over_ground(double t, const HexModel& m, double offset_m = 0.0) {
+  AltitudeEstimate a;
+  a.t_s = t;
+  a.valid = true;
+  a.z_W_m = m.p.z();
+  a.vz_W_mps = m.v.z();
+  a.h_surface_m = m.p.z() + offset_m;
+  return a;
+}
+
 // A search that began low (2.5 m: a low start, or search_min_height_m) climbs to
 // telemetry_search_height_m above the surface (the fused altitude's, here the truth's) while it
 // flies to the broadcast, so that the view covers the broadcast's error.
@@ -315,13 +324,7 @@ TEST(SearchWithBroadcast, ClimbsToTheBroadcastSearchHeight) {
   const auto broadcast = broadcast_feed(cfg.platform);
   cfg.feed = [&](double t, const HexModel& m, LandingController& c) {
     broadcast(t, m, c);
-    AltitudeEstimate a;
-    a.t_s = t;
-    a.valid = true;
-    a.z_W_m = m.p.z();
-    a.vz_W_mps = m.v.z();
-    a.h_surface_m = m.p.z();  // over the ground (z = 0)
-    c.on_altitude(a);
+    c.on_altitude(altitude_over_ground(t, m));
   };
   double z_end = 0.0;
   Mode mode_end = Mode::kObserve;
@@ -336,6 +339,9 @@ TEST(SearchWithBroadcast, ClimbsToTheBroadcastSearchHeight) {
   EXPECT_NEAR(z_end, cfg.controller.landing.telemetry_search_height_m, 0.3);
 }
 
+// A broadcast older than telemetry_max_age_s is not flown to: the search sweeps in place
+// (as without one) for search_spiral_after_s; a message without a fix (valid = false) is
+// ignored and one with a non-finite position is dropped and counted.
 TEST(SearchWithBroadcast, StaleNoFixAndNonFiniteMessagesAreNotUsed) {
   LandingRunConfig cfg = driving_away_config();
   cfg.max_time_s = 6.0;  // inside the in-place sweep (search_spiral_after_s = 8 s)
@@ -397,13 +403,8 @@ FloorRun search_floor_run(double start_z_m, double believed_offset_m, bool clear
   cfg.start_W_m = Eigen::Vector3d(0.0, 0.0, start_z_m);
   cfg.max_time_s = 6.0;  // inside the in-place sweep (search_spiral_after_s = 8 s)
   cfg.feed = [=](double t, const HexModel& m, LandingController& c) {
-    AltitudeEstimate a;
-    a.t_s = t;
-    a.valid = true;
-    a.z_W_m = m.p.z();
-    a.vz_W_mps = m.v.z();
-    a.h_surface_m = m.p.z() + believed_offset_m;  // the fused height, off by this
-    if (clearance) a.clearance_m = m.p.z();       // over the ground (z = 0)
+    AltitudeEstimate a = altitude_over_ground(t, m, believed_offset_m);
+    if (clearance) a.clearance_m = m.p.z();  // the truth
     c.on_altitude(a);
   };
   FloorRun out;

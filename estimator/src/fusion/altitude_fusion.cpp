@@ -321,6 +321,16 @@ void AltitudeFusion::reset_height(double h_mean_m, double var_m2) {
 }
 
 AltitudeFusion::Outcome AltitudeFusion::update_ultrasonic(const UltrasonicSample& s) {
+  const Outcome o = fuse_ultrasonic(s);
+  // A reading the filter used (or a step / reset it confirmed) is trusted (baro_fallback_s).
+  if (o == Outcome::kAccepted || o == Outcome::kGated || o == Outcome::kSurfaceStep ||
+      o == Outcome::kHeightReset) {
+    us_trusted_t_s_ = t_s_;
+  }
+  return o;
+}
+
+AltitudeFusion::Outcome AltitudeFusion::fuse_ultrasonic(const UltrasonicSample& s) {
   if (!age_ok(s.t_s)) return Outcome::kRejectedStale;
   // Eq. 12: outside the valid range the reading is unbounded garbage.
   if (!std::isfinite(s.range_m) || s.range_m < p_.ultrasonic_min_m ||
@@ -351,7 +361,6 @@ AltitudeFusion::Outcome AltitudeFusion::update_ultrasonic(const UltrasonicSample
     low_set_ = true;
     us_suspect_ = false;
     us_run_ = 0;
-    us_trusted_t_s_ = t_s_;
     return Outcome::kHeightReset;
   };
   if (!low_set_) {
@@ -366,7 +375,6 @@ AltitudeFusion::Outcome AltitudeFusion::update_ultrasonic(const UltrasonicSample
     low_set_ = true;
     us_suspect_ = false;
     us_run_ = 0;
-    us_trusted_t_s_ = t_s_;
     return Outcome::kSurfaceStep;
   }
   const double R = p_.ultrasonic_std_m * p_.ultrasonic_std_m;
@@ -383,7 +391,6 @@ AltitudeFusion::Outcome AltitudeFusion::update_ultrasonic(const UltrasonicSample
     us_run_ = 0;
     apply(H, r, R, 1.0);
     update_set();
-    us_trusted_t_s_ = t_s_;
     return Outcome::kAccepted;
   }
   if (std::abs(r) < p_.step_min_m) {
@@ -395,7 +402,6 @@ AltitudeFusion::Outcome AltitudeFusion::update_ultrasonic(const UltrasonicSample
     }
     apply(H, r, R, p_.gate_factor_n);  // eq. 27
     update_set();
-    us_trusted_t_s_ = t_s_;
     return Outcome::kGated;
   }
   // Large residual: a surface step (platform edge) or garbage. Not applied; step_count
@@ -408,7 +414,6 @@ AltitudeFusion::Outcome AltitudeFusion::update_ultrasonic(const UltrasonicSample
   rereference_surface(mean, var);
   us_suspect_ = false;
   update_set();
-  us_trusted_t_s_ = t_s_;
   return Outcome::kSurfaceStep;
 }
 

@@ -265,6 +265,8 @@ class AltitudeFusion {
   void rereference_surface(double h_mean_m, double var_m2);
   bool age_ok(double t_sample_s) const;
   void update_set();
+  // update_ultrasonic's work; update_ultrasonic notes when the ultrasonic was last trusted.
+  Outcome fuse_ultrasonic(const UltrasonicSample& s);
   // Adds a candidate height to the step detector; true (with mean and its variance) once
   // step_count consecutive candidates agree.
   bool collect_step(double h_now_m, double* mean_m, double* var_m2);
