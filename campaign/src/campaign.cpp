@@ -503,22 +503,31 @@ std::vector<PlannedRun> make_plan(const Campaign& c) {
         }
         fail(where, "run " + r.id + " with its sampled values is not a valid scenario: " + msg);
       }
-      // The resolved text, taken to its fixed point so that loading it back and writing it
-      // again gives the same bytes (unit scales such as deg -> rad round once).
-      std::string text = yaml_to_string(params_to_yaml(s));
-      for (int k = 0; k < 3; ++k) {
-        sim::Scenario again = defaults_s;
-        read_params(YAML::Load(text), r.id + "/scenario.yaml", again);
-        const std::string next = yaml_to_string(params_to_yaml(again));
-        if (next == text) break;
-        text = next;
-      }
-      r.scenario_yaml = text;
       r.duration_s = s.duration_s;
       plan.push_back(std::move(r));
     }
   }
   return plan;
+}
+
+std::string run_scenario_yaml(const PlannedRun& r) {
+  const sim::Scenario defaults_s = sim::Scenario::defaults();
+  YAML::Node node = load_yaml_file(r.scenario_file);
+  if (!node.IsMap()) node = YAML::Node(YAML::NodeType::Map);
+  for (const auto& [key, v] : r.sampled) assign(node, key, v);
+  node["seed"] = r.seed;
+  sim::Scenario s = defaults_s;
+  read_params(node, r.scenario_file, s);
+  // Taken to its fixed point: unit scales such as deg -> rad round once.
+  std::string text = yaml_to_string(params_to_yaml(s));
+  for (int k = 0; k < 3; ++k) {
+    sim::Scenario again = defaults_s;
+    read_params(YAML::Load(text), r.id + "/scenario.yaml", again);
+    const std::string next = yaml_to_string(params_to_yaml(again));
+    if (next == text) break;
+    text = next;
+  }
+  return text;
 }
 
 std::vector<std::pair<std::string, std::string>> flatten_value(const std::string& key,

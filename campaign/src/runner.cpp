@@ -342,7 +342,7 @@ RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan
       a.run = r;
       a.partial = runs_dir + "/" + r->id + ".partial-" + std::to_string(getpid());
       fs::create_directories(a.partial);
-      sim::write_file_atomic(a.partial + "/scenario.input.yaml", r->scenario_yaml);
+      sim::write_file_atomic(a.partial + "/scenario.input.yaml", run_scenario_yaml(*r));
       sim::SpawnOptions so;
       so.stdout_path = a.partial + "/stdout.log";
       so.stderr_path = a.partial + "/stderr.log";
