@@ -261,10 +261,7 @@ Setpoint LandingController::search_at_broadcast(double t_s, double dt, const Nav
   }
   slew_follow_point(p, v, dt);
   // The search height for a broadcast's error (never lower than the search began at).
-  const double z_view = altitude_.valid
-                            ? nav.p_W_m.z() + (L.telemetry_search_height_m - altitude_.h_surface_m)
-                            : hold_p_.z();
-  hold_p_.z() = std::max(hold_p_.z(), z_view);
+  hold_p_.z() = std::max(hold_p_.z(), z_above_surface(nav, L.telemetry_search_height_m));
   if (std::isnan(broadcast_arrived_t_) &&
       (nav.p_W_m.head<2>() - p).norm() <= L.telemetry_arrive_radius_m) {
     broadcast_arrived_t_ = t_s;
@@ -355,12 +352,15 @@ void LandingController::check_reacquired(double t_s) {
   }
 }
 
-double LandingController::search_min_z(const NavState& nav) const {
-  const LandingParams& L = p_.landing;
-  if (!altitude_.valid) return L.search_min_height_m;
-  const double by_fusion = nav.p_W_m.z() + (L.search_min_height_m - altitude_.h_surface_m);
+double LandingController::z_above_surface(const NavState& nav, double h_m) const {
+  if (!altitude_.valid) return h_m;
+  const double by_fusion = nav.p_W_m.z() + (h_m - altitude_.h_surface_m);
   if (!std::isfinite(altitude_.clearance_m)) return by_fusion;
-  return std::max(by_fusion, nav.p_W_m.z() + (L.search_min_height_m - altitude_.clearance_m));
+  return std::max(by_fusion, nav.p_W_m.z() + (h_m - altitude_.clearance_m));
+}
+
+double LandingController::search_min_z(const NavState& nav) const {
+  return z_above_surface(nav, p_.landing.search_min_height_m);
 }
 
 // A fused height metres off (a degraded GPS taken in at the start, wandering with its error)

@@ -94,8 +94,8 @@ void AltitudeFusion::reset(double t_s, double z_W_m, double surface_W_m, double 
   low_set_ = (z_W_m - surface_W_m) < p_.switch_height_m;
   us_trusted_t_s_ = t_s;
   step_n_ = 0;
-  reset_n_ = 0;
-  clear_n_ = 0;
+  reset_chain_.clear();
+  clear_chain_.clear();
   us_suspect_ = false;
   us_run_ = 0;
   rejects_.fill(0);
@@ -283,20 +283,12 @@ bool AltitudeFusion::collect_height_reset(double h_now_m, double* mean_m, double
   if (p_.height_reset_count <= 0) return false;
   // Each reading's implied surface within step_agree_m of the previous one's (garbage does
   // not chain; a climb or descent does, the height's own motion taking the readings' change).
-  const double q = odo_z_ - h_now_m;
-  if (reset_n_ > 0 && std::abs(q - reset_last_) > p_.step_agree_m) reset_n_ = 0;
-  if (reset_n_ == 0) reset_sum_ = reset_sum2_ = 0.0;
-  ++reset_n_;
-  reset_sum_ += q;
-  reset_sum2_ += q * q;
-  reset_last_ = q;
-  if (reset_n_ < p_.height_reset_count) return false;
-  const double n = reset_n_;
-  const double q_mean = reset_sum_ / n;
-  *mean_m = odo_z_ - q_mean;
-  const double spread2 = std::max(0.0, reset_sum2_ / n - q_mean * q_mean);
-  *var_m2 = p_.ultrasonic_std_m * p_.ultrasonic_std_m / n + spread2;
-  reset_n_ = 0;
+  AgreeingChain& c = reset_chain_;
+  c.add(odo_z_ - h_now_m, t_s_, p_.step_agree_m);
+  if (c.n < p_.height_reset_count) return false;
+  *mean_m = odo_z_ - c.mean();
+  *var_m2 = p_.ultrasonic_std_m * p_.ultrasonic_std_m / c.n + c.spread2();
+  c.clear();
   return true;
 }
 
@@ -336,8 +328,8 @@ AltitudeFusion::Outcome AltitudeFusion::fuse_ultrasonic(const UltrasonicSample& 
   if (!std::isfinite(s.range_m) || s.range_m < p_.ultrasonic_min_m ||
       s.range_m > p_.ultrasonic_max_m) {
     step_n_ = 0;
-    reset_n_ = 0;
-    clear_n_ = 0;
+    reset_chain_.clear();
+    clear_chain_.clear();
     us_suspect_ = true;
     us_run_ = 0;
     return Outcome::kRejectedRange;
@@ -346,11 +338,7 @@ AltitudeFusion::Outcome AltitudeFusion::fuse_ultrasonic(const UltrasonicSample& 
   const double h_c = s.range_m * cos_tilt_;  // slant range to vertical height
   const double h_now = h_c + x_[kVz] * age;  // compensated to now by the predicted motion
   // The clearance chain, whatever the reading means for the surface state below.
-  const double q = odo_z_ - h_now;
-  if (clear_n_ > 0 && std::abs(q - clear_q_) > p_.step_agree_m) clear_n_ = 0;
-  ++clear_n_;
-  clear_q_ = q;
-  clear_t_s_ = s.t_s;
+  clear_chain_.add(odo_z_ - h_now, s.t_s, p_.step_agree_m);
   double mean, var;
   // A reading that implies a step beyond surface_step_max_m: garbage, unless enough of them
   // agree (then the height was wrong: height_reset_count).
@@ -358,7 +346,7 @@ AltitudeFusion::Outcome AltitudeFusion::fuse_ultrasonic(const UltrasonicSample& 
     step_n_ = 0;
     if (!collect_height_reset(h_now, &mean, &var)) return otherwise;
     reset_height(mean, var);
-    low_set_ = true;
+    set_low(true);
     us_suspect_ = false;
     us_run_ = 0;
     return Outcome::kHeightReset;
@@ -369,10 +357,10 @@ AltitudeFusion::Outcome AltitudeFusion::fuse_ultrasonic(const UltrasonicSample& 
     // surface switch to the eq. 17 set and re-reference s (s was not observed up there).
     const double implied_jump = std::abs((x_[kZ] - h_now) - x_[kSurface]);
     if (implied_jump > p_.surface_step_max_m) return impossible_step(Outcome::kRejectedSet);
-    reset_n_ = 0;
+    reset_chain_.clear();
     if (!collect_step(h_now, &mean, &var)) return Outcome::kRejectedSet;
     rereference_surface(mean, var);
-    low_set_ = true;
+    set_low(true);
     us_suspect_ = false;
     us_run_ = 0;
     return Outcome::kSurfaceStep;
@@ -382,7 +370,7 @@ AltitudeFusion::Outcome AltitudeFusion::fuse_ultrasonic(const UltrasonicSample& 
   double r, S;
   residual(H, h_c, R, &r, &S);
   if (std::abs(r) <= p_.gate_sigma * std::sqrt(S)) {
-    reset_n_ = 0;
+    reset_chain_.clear();
     step_n_ = 0;
     // After garbage, a reading that happens to fall inside the gate is not trusted until
     // step_count consecutive readings pass it (the sensor is back on the surface).
@@ -395,7 +383,7 @@ AltitudeFusion::Outcome AltitudeFusion::fuse_ultrasonic(const UltrasonicSample& 
   }
   if (std::abs(r) < p_.step_min_m) {
     step_n_ = 0;
-    reset_n_ = 0;
+    reset_chain_.clear();
     if (us_suspect_) {  // still re-confirming after garbage: hold it
       us_run_ = 0;
       return Outcome::kStepPending;
@@ -409,7 +397,7 @@ AltitudeFusion::Outcome AltitudeFusion::fuse_ultrasonic(const UltrasonicSample& 
   us_suspect_ = true;
   us_run_ = 0;
   if (std::abs(r) > p_.surface_step_max_m) return impossible_step(Outcome::kStepPending);
-  reset_n_ = 0;
+  reset_chain_.clear();
   if (!collect_step(h_now, &mean, &var)) return Outcome::kStepPending;
   rereference_surface(mean, var);
   us_suspect_ = false;
@@ -426,9 +414,9 @@ AltitudeEstimate AltitudeFusion::estimate() const {
   e.h_surface_m = x_[kZ] - x_[kSurface];
   e.baro_bias_m = x_[kBaroBias];
   e.var_m2 = P_(kZ, kZ);
-  if (p_.clearance_count > 0 && clear_n_ >= p_.clearance_count &&
-      t_s_ - clear_t_s_ <= p_.max_sample_age_s) {
-    e.clearance_m = odo_z_ - clear_q_;
+  if (p_.clearance_count > 0 && clear_chain_.n >= p_.clearance_count &&
+      t_s_ - clear_chain_.last_t_s <= p_.max_sample_age_s) {
+    e.clearance_m = odo_z_ - clear_chain_.last;
   }
   return e;
 }

@@ -216,9 +216,11 @@ class LandingController {
   double platform_z() const;  // platform height of the last fix, even after the history
                               // was dropped; 0 (ground) before the first
   Setpoint hold(const Eigen::Vector3d& p) const;
-  // Height in W that is search_min_height_m above the surface below (m): by the fused
-  // altitude (above the W origin plane without one), and by the ultrasonic's clearance where
-  // it has one (AltitudeEstimate::clearance_m: what is below, whatever the fusion believes).
+  // Height in W that is h_m above the surface below (m): by the fused altitude (above the W
+  // origin plane without one), and at least as high by the ultrasonic's clearance where it
+  // has one (AltitudeEstimate::clearance_m: what is below, whatever the fusion believes).
+  double z_above_surface(const NavState& nav, double h_m) const;
+  // z_above_surface at search_min_height_m.
   double search_min_z(const NavState& nav) const;
   // Search, go-around and abort: raises the held height to search_min_z (every step, so a
   // height estimate that was wrong cannot hold the vehicle low); logs a "low_clearance" event

@@ -1,7 +1,9 @@
 // Altitude fusion (seed 004 section 4) and the barometric altitude formula (seed 004 eq. 8).
 #pragma once
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <initializer_list>
 #include <utility>
 
@@ -279,22 +281,37 @@ class AltitudeFusion {
   double cos_tilt_{1.0};
   std::array<double, 8> step_buf_{};
   int step_n_{0};
-  // Height reset (height_reset_count): consecutive agreeing readings that imply an impossible
-  // surface step, their sum and sum of squares, and the last one.
-  // Their implied surfaces (odo_z_ - h) are summed, so a moving vehicle's readings agree.
-  int reset_n_{0};
-  double reset_sum_{0.0}, reset_sum2_{0.0}, reset_last_{0.0};
+  // A chain of consecutive ultrasonic readings whose implied surfaces (odo_z_ - h: a moving
+  // vehicle's readings agree) each lie within a tolerance of the previous one's; a reading
+  // that does not restarts it. Garbage (eq. 12) does not chain.
+  struct AgreeingChain {
+    int n{0};
+    double sum{0.0}, sum2{0.0};  // of the implied surfaces
+    double last{0.0};            // the last implied surface
+    double last_t_s{0.0};        // and its sample time
+    void add(double q, double t_s, double agree_m) {
+      if (n > 0 && std::abs(q - last) > agree_m) n = 0;
+      if (n == 0) sum = sum2 = 0.0;
+      ++n;
+      sum += q;
+      sum2 += q * q;
+      last = q;
+      last_t_s = t_s;
+    }
+    void clear() { n = 0; }
+    double mean() const { return sum / n; }
+    double spread2() const { return std::max(0.0, sum2 / n - mean() * mean()); }
+  };
+  // Height reset (height_reset_count): readings that imply an impossible surface step.
+  AgreeingChain reset_chain_;
   // Counts one such reading; true (with the mean height now and its variance) once there are
   // enough.
   bool collect_height_reset(double h_now_m, double* mean_m, double* var_m2);
-  // Clearance chain (clearance_count): consecutive in-range readings whose implied surfaces
-  // agree, and the last implied surface.
-  int clear_n_{0};
-  double clear_q_{0.0};
+  // Clearance (clearance_count): every in-range reading.
+  AgreeingChain clear_chain_;
   // The height's own motion, dead-reckoned by predict() only (the chains' reference: a
   // measurement update or a reset moving z does not move what the readings saw).
   double odo_z_{0.0};
-  double clear_t_s_{0.0};  // the last one's time
   // Sets the height to the surface + h_mean_m (see height_reset_count).
   void reset_height(double h_mean_m, double var_m2);
   long height_resets_{0};
