@@ -411,6 +411,7 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
       break;
     }
     case Mode::kObserve:
+      observe_entry_t_ = t_s;
       // Start the follow point with the vehicle's own velocity relative to the platform
       // estimate (zero without one): no jump in the velocity feed-forward.
       start_follow_point(nav, tracker_.num_fixes() >= kMinFixesForFeedForward
@@ -621,9 +622,17 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
                   nav);
         return run_mode_machine(t_s, nav);
       }
-      if (tracker_.total_fixes() >= L.observe_frames) {
+      const bool close = L.approach_entry_max_error_m <= 0.0 || !tracker_.has_fix() ||
+                         diag_.horizontal_error_m <= L.approach_entry_max_error_m;
+      const bool waited = t_s - observe_entry_t_ >= L.approach_entry_wait_s;
+      if (tracker_.total_fixes() >= L.observe_frames && (close || waited)) {
         switch_to(t_s, Mode::kApproach,
-                  fmt::format("{} keyframes observed (>= {})", tracker_.total_fixes(), L.observe_frames),
+                  close ? fmt::format("{} keyframes observed (>= {})", tracker_.total_fixes(),
+                                      L.observe_frames)
+                        : fmt::format("{} keyframes observed (>= {}); {:.2f} m off the platform "
+                                      "after {:.1f} s of observing (approach_entry_wait_s)",
+                                      tracker_.total_fixes(), L.observe_frames,
+                                      diag_.horizontal_error_m, t_s - observe_entry_t_),
                   nav);
         return run_mode_machine(t_s, nav);
       }

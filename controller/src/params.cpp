@@ -91,6 +91,8 @@ double LandingParams::wide_gate_m() const {
 
 void LandingParams::validate() const {
   require(observe_frames >= 1, "observe_frames", "must be >= 1");
+  require(approach_entry_max_error_m >= 0, "approach_entry_max_error_m", "must be >= 0 (0: off)");
+  require(approach_entry_wait_s >= 0, "approach_entry_wait_s", "must be >= 0");
   require(approach_epsilon_m > 0, "approach_epsilon_m", "must be > 0");
   require(approach_speed_mps > 0, "approach_speed_mps", "must be > 0");
   require(approach_min_duration_s > 0, "approach_min_duration_s", "must be > 0");

@@ -57,6 +57,47 @@ TEST(ModeMachine, BlurredFramesDoNotCountTowardsTheEightyKeyframes) {
   EXPECT_GT(run.transitions[1].t_s - run.transitions[0].t_s, 80.0 / 15.0 - 0.5);
 }
 
+// The approach starts only once observe's follower has closed on the platform
+// (approach_entry_max_error_m): a disturbance the controller cannot remove holds the vehicle
+// 3 m to the side until t = 6 s, well after the 80 keyframes (~2.7 s at 30 Hz).
+TEST(ModeMachine, ApproachWaitsUntilTheFollowerHasClosedOnThePlatform) {
+  constexpr double kHeldOff_m = 3.0;     // twice the 1.5 m entry gate
+  constexpr double kReleased_s = 6.0;
+  KinematicRun run;
+  run.offset = [&](double t, const LandingController&) {
+    return t < kReleased_s ? Eigen::Vector3d(0.0, kHeldOff_m, 0.0) : Eigen::Vector3d::Zero();
+  };
+  run.stop_when = [](const LandingController& c) { return c.mode() == Mode::kApproach; };
+  run.run();
+  SCOPED_TRACE(describe(run.transitions));
+  ASSERT_GE(run.transitions.size(), 2u);
+  EXPECT_EQ(run.transitions[0].to, Mode::kObserve);
+  EXPECT_EQ(run.transitions[1].to, Mode::kApproach);
+  EXPECT_GE(run.transitions[1].t_s, kReleased_s);
+  // Released, the tight kinematic tracking closes the gap within a second.
+  EXPECT_LT(run.transitions[1].t_s, kReleased_s + 1.0);
+  EXPECT_GT(run.keyframes_before_approach, 80);
+  // Entered close: the plain reason, not the wait's.
+  EXPECT_EQ(run.transitions[1].reason.find("approach_entry_wait_s"), std::string::npos);
+}
+
+// ... and after approach_entry_wait_s of observing it starts anyway, saying why.
+TEST(ModeMachine, ApproachStartsAfterTheEntryWaitWhenTheFollowerCannotClose) {
+  KinematicRun run;
+  run.offset = [](double, const LandingController&) { return Eigen::Vector3d(0.0, 3.0, 0.0); };
+  run.stop_when = [](const LandingController& c) { return c.mode() == Mode::kApproach; };
+  run.run();
+  SCOPED_TRACE(describe(run.transitions));
+  ASSERT_GE(run.transitions.size(), 2u);
+  EXPECT_EQ(run.transitions[1].to, Mode::kApproach);
+  const double observed_s = run.transitions[1].t_s - run.transitions[0].t_s;
+  const double wait_s = run.params.landing.approach_entry_wait_s;
+  constexpr double kOuterTick_s = 0.05;  // the mode machine runs at the outer loop's rate
+  EXPECT_GE(observed_s, wait_s);
+  EXPECT_LT(observed_s, wait_s + kOuterTick_s);
+  EXPECT_NE(run.transitions[1].reason.find("approach_entry_wait_s"), std::string::npos);
+}
+
 TEST(ModeMachine, LossWhileObservingHighGoesToSearchAndReacquires) {
   KinematicRun run;
   run.visible = [](double t, const Eigen::Isometry3d&) { return t < 1.5 || t > 4.0; };

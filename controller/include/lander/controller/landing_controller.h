@@ -329,6 +329,7 @@ class LandingController {
   std::optional<GpsSample> broadcast_;  // the newest accepted message
   long telemetry_received_{0}, telemetry_search_steps_{0};
   bool broadcast_following_{false};  // the follow point flies to the broadcast
+  double observe_entry_t_{0.0};       // when observe was last entered (approach_entry_wait_s)
   bool low_clearance_logged_{false};  // keep_min_height's event, once per mode
   double broadcast_arrived_t_{std::numeric_limits<double>::quiet_NaN()};  // this search came
                                      // within telemetry_arrive_radius_m of it (s)

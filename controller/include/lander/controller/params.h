@@ -176,6 +176,12 @@ void visit_fields(V& v, TrackerParams& p) {
 struct LandingParams {
   // observe -> approach (seed 000 section 3.2)
   int observe_frames{80};                 ///< keyframes before approach (paper: 80)
+  // The approach starts only once observe's follower has closed on the platform: an approach
+  // begun metres off (a re-acquisition after a loss, keyframes already counted) chases the
+  // cart at the view's edge and loses it again. After approach_entry_wait_s in observe it
+  // starts anyway (bounded: a cart the follower cannot close on still gets its attempt).
+  double approach_entry_max_error_m{1.5};  ///< horizontal error to the platform (m); 0: off
+  double approach_entry_wait_s{8.0};       ///< observe time after which it starts anyway (s)
   double approach_epsilon_m{1.5};         ///< height above the platform at t_d, eq. 28 (m)
   double approach_speed_mps{1.0};         ///< mean speed that sets t_d (m/s), > 0
   double approach_min_duration_s{3.0};    ///< lower bound of t_d - t_0 (s)
@@ -390,6 +396,8 @@ struct LandingParams {
 template <class V>
 void visit_fields(V& v, LandingParams& p) {
   v("observe_frames", p.observe_frames);
+  v("approach_entry_max_error_m", p.approach_entry_max_error_m);
+  v("approach_entry_wait_s", p.approach_entry_wait_s);
   v("approach_epsilon_m", p.approach_epsilon_m);
   v("approach_speed_mps", p.approach_speed_mps);
   v("approach_min_duration_s", p.approach_min_duration_s);
