@@ -359,6 +359,16 @@ void check_keys(const YAML::Node& map, const std::string& file, const std::set<s
   }
 }
 
+// The run's scenario tree: its scenario file with the sampled values and the run's seed in
+// force (what make_plan checks and run_scenario_yaml writes).
+YAML::Node run_node(const YAML::Node& file_node, const PlannedRun& r) {
+  YAML::Node node = YAML::Clone(file_node);
+  if (!node.IsMap()) node = YAML::Node(YAML::NodeType::Map);
+  for (const auto& [key, v] : r.sampled) assign(node, key, v);
+  node["seed"] = r.seed;
+  return node;
+}
+
 YAML::Node resolved_defaults() {
   return params_to_yaml(sim::Scenario::defaults());
 }
@@ -473,17 +483,13 @@ std::vector<PlannedRun> make_plan(const Campaign& c) {
       r.plan_index = static_cast<int>(plan.size());
       r.id = fmt::format("{}-{:0{}d}", e.id, i, width);
       r.seed = e.first_seed >= 0 ? static_cast<std::uint64_t>(e.first_seed + i) : run_seed(c.seed, e.id, i);
-      YAML::Node node = YAML::Clone(file_node);
-      if (!node.IsMap()) node = YAML::Node(YAML::NodeType::Map);
       for (const Dispersion* d : ds) {
-        const YAML::Node v = d->sample(sim::derive_seed(r.seed, "dispersion/" + d->key), lookup(defaults, d->key));
-        assign(node, d->key, v);
-        r.sampled.emplace_back(d->key, v);
+        r.sampled.emplace_back(
+            d->key, d->sample(sim::derive_seed(r.seed, "dispersion/" + d->key), lookup(defaults, d->key)));
       }
-      node["seed"] = r.seed;
       sim::Scenario s = defaults_s;
       try {
-        read_params(node, e.file, s);
+        read_params(run_node(file_node, r), e.file, s);
       } catch (const ConfigError& err) {
         const std::string msg = err.what();
         std::string where = e.where, key;
@@ -512,12 +518,8 @@ std::vector<PlannedRun> make_plan(const Campaign& c) {
 
 std::string run_scenario_yaml(const PlannedRun& r) {
   const sim::Scenario defaults_s = sim::Scenario::defaults();
-  YAML::Node node = load_yaml_file(r.scenario_file);
-  if (!node.IsMap()) node = YAML::Node(YAML::NodeType::Map);
-  for (const auto& [key, v] : r.sampled) assign(node, key, v);
-  node["seed"] = r.seed;
   sim::Scenario s = defaults_s;
-  read_params(node, r.scenario_file, s);
+  read_params(run_node(load_yaml_file(r.scenario_file), r), r.scenario_file, s);
   // Taken to its fixed point: unit scales such as deg -> rad round once.
   std::string text = yaml_to_string(params_to_yaml(s));
   for (int k = 0; k < 3; ++k) {
