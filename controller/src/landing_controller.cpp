@@ -626,14 +626,14 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
                          diag_.horizontal_error_m <= L.approach_entry_max_error_m;
       const bool waited = t_s - observe_entry_t_ >= L.approach_entry_wait_s;
       if (tracker_.total_fixes() >= L.observe_frames && (close || waited)) {
-        switch_to(t_s, Mode::kApproach,
-                  close ? fmt::format("{} keyframes observed (>= {})", tracker_.total_fixes(),
-                                      L.observe_frames)
-                        : fmt::format("{} keyframes observed (>= {}); {:.2f} m off the platform "
-                                      "after {:.1f} s of observing (approach_entry_wait_s)",
-                                      tracker_.total_fixes(), L.observe_frames,
-                                      diag_.horizontal_error_m, t_s - observe_entry_t_),
-                  nav);
+        std::string why =
+            fmt::format("{} keyframes observed (>= {})", tracker_.total_fixes(), L.observe_frames);
+        if (!close) {
+          why += fmt::format("; {:.2f} m off the platform after {:.1f} s of observing "
+                             "(approach_entry_wait_s)",
+                             diag_.horizontal_error_m, t_s - observe_entry_t_);
+        }
+        switch_to(t_s, Mode::kApproach, why, nav);
         return run_mode_machine(t_s, nav);
       }
       // Follow the platform horizontally at the observe height to keep it centred: the
