@@ -969,8 +969,23 @@ CodeDetection detect_code_impl(const cv::Mat& grey, const CameraModel& cam, cons
     ip = i2;
     if (!solve()) return fail("PnP failed");
   }
-  if (d.reproj_rms_px > p.code_max_reproj_px) {
-    return fail("corner reprojection " + std::to_string(d.reproj_rms_px) + " px above the gate");
+  // The gate grows with the code's extent in the image (code_max_reproj_fraction of the
+  // corners' RMS distance from their centroid): a relative calibration error (pixel aspect)
+  // leaves residuals in proportion to that extent, largest in the last decimetres.
+  Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+  for (const auto& q : ip) centroid += Eigen::Vector2d(q.x, q.y);
+  centroid /= static_cast<double>(ip.size());
+  double spread2 = 0.0;
+  for (const auto& q : ip) spread2 += (Eigen::Vector2d(q.x, q.y) - centroid).squaredNorm();
+  const double spread_px = std::sqrt(spread2 / static_cast<double>(ip.size()));
+  const double reproj_gate = std::max(p.code_max_reproj_px, p.code_max_reproj_fraction * spread_px);
+  if (!(d.reproj_rms_px <= reproj_gate)) {
+    std::ostringstream os;
+    os << "corner reprojection " << d.reproj_rms_px << " px above the gate " << reproj_gate
+       << " px (the larger of code_max_reproj_px and code_max_reproj_fraction x the corners' "
+          "spread, "
+       << spread_px << " px)";
+    return fail(os.str());
   }
   // Covariance sigma^2 (J^T J)^-1 over [rvec, tvec].
   std::vector<cv::Point2d> pr;

@@ -66,6 +66,8 @@ void VisionParams::validate() const {
   require(code_min_score_margin >= 1, "code_min_score_margin", "must be >= 1");
   require(code_min_corners >= 4, "code_min_corners", "must be >= 4 (planar PnP)");
   require(code_max_reproj_px > 0, "code_max_reproj_px", "must be > 0");
+  require(code_max_reproj_fraction >= 0 && code_max_reproj_fraction <= 0.02,
+          "code_max_reproj_fraction", "must be in [0, 0.02]");
   require(tracked_yaw_sigma_rad > 0, "tracked_yaw_sigma_rad", "must be > 0");
   require(tracked_max_jump_m >= 0, "tracked_max_jump_m", "must be >= 0");
   require(tracked_max_jump_ratio >= 0, "tracked_max_jump_ratio", "must be >= 0");

@@ -146,6 +146,12 @@ struct VisionParams {
                                      ///< (a disagreement costs 4, an agreement gains 1)
   int code_min_corners{8};           ///< matched sub-pixel corners needed for the PnP
   double code_max_reproj_px{1.0};    ///< corner reprojection RMS gate after refinement (px)
+  /// The gate also grows with the code's size in the image: the larger of code_max_reproj_px
+  /// and this fraction of the corners' RMS distance from their centroid (px). A camera whose
+  /// pixel aspect differs from its calibration by 0.85 % leaves 1.0-1.5 px of RMS at 0.2-0.4 m
+  /// (the corners then span the frame) that no pose explains, while the identity is certain
+  /// (hundreds of read cells agree with the map); 0 keeps the absolute gate alone.
+  double code_max_reproj_fraction{0.005};
   bool code_local_white{true};       ///< when one level for all cells gives no placement, read
                                      ///< each cell against its local white (shadows)
   bool code_search_region{true};     ///< with a pose (this frame's rings or the track), search
@@ -234,6 +240,7 @@ void visit_fields(V& v, VisionParams& p) {
   v("code_min_score_margin", p.code_min_score_margin);
   v("code_min_corners", p.code_min_corners);
   v("code_max_reproj_px", p.code_max_reproj_px);
+  v("code_max_reproj_fraction", p.code_max_reproj_fraction);
   v("code_local_white", p.code_local_white);
   v("code_search_region", p.code_search_region);
   v("code_lattice_from_pose", p.code_lattice_from_pose);
