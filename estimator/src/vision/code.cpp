@@ -972,12 +972,9 @@ CodeDetection detect_code_impl(const cv::Mat& grey, const CameraModel& cam, cons
   // The gate grows with the code's extent in the image (code_max_reproj_fraction of the
   // corners' RMS distance from their centroid): a relative calibration error (pixel aspect)
   // leaves residuals in proportion to that extent, largest in the last decimetres.
-  Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
-  for (const auto& q : ip) centroid += Eigen::Vector2d(q.x, q.y);
-  centroid /= static_cast<double>(ip.size());
-  double spread2 = 0.0;
-  for (const auto& q : ip) spread2 += (Eigen::Vector2d(q.x, q.y) - centroid).squaredNorm();
-  const double spread_px = std::sqrt(spread2 / static_cast<double>(ip.size()));
+  cv::Scalar corner_mean, corner_sd;
+  cv::meanStdDev(ip, corner_mean, corner_sd);
+  const double spread_px = std::hypot(corner_sd[0], corner_sd[1]);
   const double reproj_gate = std::max(p.code_max_reproj_px, p.code_max_reproj_fraction * spread_px);
   if (!(d.reproj_rms_px <= reproj_gate)) {
     std::ostringstream os;
