@@ -345,56 +345,118 @@ TEST(VisionCloseRange, DistortedAndBlurredFramesGivePose) {
   }
 }
 
-// Given close views (0.15-0.5 m above the platform top) taken by a camera whose pixel aspect
+// Given close views (0.15-0.7 m above the platform top) taken by a camera whose pixel aspect
 // differs from its calibration (true fy 0.85 % above the believed 640 px, as in an unseen
-// campaign's stop-and-go run that lost the target below 0.45 m), when the code is localised
-// with the calibration, then every view gives a code pose (its corners span most of the
-// frame, and the relative error leaves 1-1.5 px of RMS that no pose explains); with the gate
-// in absolute pixels only (code_max_reproj_fraction 0) the closest views are refused, naming
-// the gate. Tolerances: the aspect error is a 0.85 % stretch of one image axis; the pose that
-// best explains it is off by up to about half of it in the plane and in depth, so 1 % of the
-// distance; rotation within 0.5 deg (the stretch tilts the plane a little).
-constexpr double kAspectError = 0.0085;
-constexpr double kAspectPosTolPerMetre = 0.01;
-constexpr double kAspectRotTolRad = 0.5 * M_PI / 180.0;
+// campaign's stop-and-go run that lost the target below 0.45 m; and 2 %, the worst an unseen
+// plant-mismatch campaign's 2 % focal dispersion gave to runs that lost it 0.4-0.6 m above
+// the top), when the code is localised with the calibration, then every view gives a code
+// pose: its corners span most of the frame, and the relative error leaves corner RMS in
+// proportion to their spread (about half the aspect error times the spread: 1-1.5 px at
+// 0.85 %, 1.4-3.5 px at 2 %) that no pose explains, and the gate grows with that spread
+// (code_max_reproj_fraction). With the gate in absolute pixels only (fraction 0) the
+// views are refused, naming the gate. Tolerances: the stretch of one image axis is explained
+// by a pose off by up to about its size in the plane and in depth, so 2 % of the distance
+// (observed at most 1.1 %); the rotation may take part of it up as tilt (first order
+// 0.02 / tan(10 deg) = 6.5 deg at 10 deg tilt, none at 0 deg), the corners far from the
+// centre hold it: observed at most 1.8 deg; 3 deg.
+constexpr double kAspectPosTolPerMetre = 0.02;
+constexpr double kAspectRotTolRad = 3.0 * M_PI / 180.0;
 TEST(VisionCloseRange, CodePoseHoldsUnderAPixelAspectError) {
   const TargetGeometry& g = test::default_target();
-  CameraModel truth;
-  truth.fy_px = kCam.fy_px * (1.0 + kAspectError);
   VisionParams absolute_only;
   absolute_only.code_max_reproj_fraction = 0.0;
   int refused_absolute = 0;
   int n = 0;
-  for (double h : {0.15, 0.25, 0.35, 0.5}) {
-    for (double tilt : {0.0, 10.0}) {
+  for (double aspect : {0.0085, 0.02}) {
+    CameraModel truth;
+    truth.fy_px = kCam.fy_px * (1.0 + aspect);
+    for (double h : {0.15, 0.25, 0.35, 0.5, 0.7}) {
+      for (double tilt : {0.0, 10.0}) {
+        SCOPED_TRACE("aspect " + std::to_string(aspect) + " height " + std::to_string(h) + " tilt " +
+                     std::to_string(tilt));
+        const auto X = test::look_at_pose(h, tilt, 30.0 + 47.0 * n, 20.0 * n, Eigen::Vector2d(0.03, -0.02));
+        test::SynthOptions o;
+        o.noise_sigma = kNoiseGrey;
+        o.seed = 300 + n++;
+        const cv::Mat img = test::render_view(g, truth, X, o);
+        const RingDetection d = detect_ring_target(img, kCam, g, {});
+        ASSERT_TRUE(d.detected) << d.reason;
+        EXPECT_TRUE(d.source == PoseSource::Code || d.source == PoseSource::Combined) << to_string(d.source);
+        EXPECT_LE(d.reproj_err_px, d.reproj_gate_px);
+        EXPECT_LT(test::position_error_m(d.X_CP, X), kAspectPosTolPerMetre * X.translation().norm());
+        EXPECT_LT(test::rotation_error_rad(d.X_CP, X), kAspectRotTolRad);
+        cv::Mat grey;
+        cv::cvtColor(img, grey, cv::COLOR_BGR2GRAY);
+        const CodeDetection a = detect_code_pattern(grey, kCam, g, absolute_only);
+        if (!a.detected) {
+          ++refused_absolute;
+          EXPECT_NE(a.reason.find("above the gate"), std::string::npos) << a.reason;
+        }
+        std::printf("aspect %.2f %%: h %.2f tilt %.0f: %s, RMS %.2f px (gate %.2f), position error "
+                    "%.2f %% of the distance, rotation %.2f deg; absolute gate alone: %s\n",
+                    100.0 * aspect, h, tilt, to_string(d.source), d.reproj_err_px, d.reproj_gate_px,
+                    100.0 * test::position_error_m(d.X_CP, X) / X.translation().norm(),
+                    test::rotation_error_rad(d.X_CP, X) * 180.0 / M_PI,
+                    a.detected ? "pose" : a.reason.c_str());
+      }
+    }
+  }
+  // The absolute gate alone refuses many of these views (observed: 6 of 10 at 0.85 %, 10 of
+  // 10 at 2 %); at least one, or the relative gate is not what lets them through.
+  EXPECT_GE(refused_absolute, 1);
+}
+
+// Given views from 1 to 3 m (the rings' range) taken by a camera whose pixel aspect is 2 % off
+// its calibration (true fy 2 % above the believed; an unseen campaign dispersing each focal
+// length by 2 % lost the target 0.4-1 m above the platform at 1.1-3.2 % aspect error), when
+// the rings are localised alone (code off), then every view gives a pose: the ring gates grow
+// with the sets' extent in the image (max_reproj_fraction, max_centre_reproj_fraction). With
+// the gates in absolute pixels only, some views are refused. Tolerances: the stretch of one
+// axis by 2 % is explained by a pose off by up to about its size, so 2 % of the distance
+// (observed at most 1.2 %). The rotation may take up the stretch as a change of tilt: the
+// foreshortening cos(tilt) grows by 2 % with a tilt change of 0.02 cos(tilt) / sin(tilt) rad,
+// 4.3 deg at 15 deg (to first order; none at 0 deg), so 4.5 deg (observed at most 2.2 deg at
+// 15 deg, 0.2 deg at 0 deg).
+constexpr double kRingAspectError = 0.02;
+constexpr double kRingAspectPosTolPerMetre = 0.02;
+constexpr double kRingAspectRotTolRad = 4.5 * M_PI / 180.0;
+TEST(VisionCloseRange, RingPoseHoldsUnderAPixelAspectError) {
+  const TargetGeometry& g = test::default_target();
+  CameraModel truth;
+  truth.fy_px = kCam.fy_px * (1.0 + kRingAspectError);
+  VisionParams p;
+  p.code_enabled = false;
+  VisionParams absolute_only = p;
+  absolute_only.max_reproj_fraction = 0.0;
+  absolute_only.max_centre_reproj_fraction = 0.0;
+  int refused_absolute = 0;
+  int n = 0;
+  for (double h : {1.0, 1.5, 2.0, 3.0}) {
+    for (double tilt : {0.0, 15.0}) {
       SCOPED_TRACE("height " + std::to_string(h) + " tilt " + std::to_string(tilt));
       const auto X = test::look_at_pose(h, tilt, 30.0 + 47.0 * n, 20.0 * n, Eigen::Vector2d(0.03, -0.02));
       test::SynthOptions o;
       o.noise_sigma = kNoiseGrey;
-      o.seed = 300 + n++;
+      o.seed = 400 + n++;
       const cv::Mat img = test::render_view(g, truth, X, o);
-      const RingDetection d = detect_ring_target(img, kCam, g, {});
+      const RingDetection d = detect_ring_target(img, kCam, g, p);
       ASSERT_TRUE(d.detected) << d.reason;
-      EXPECT_EQ(d.source, PoseSource::Code);
-      EXPECT_LT(test::position_error_m(d.X_CP, X), kAspectPosTolPerMetre * X.translation().norm());
-      EXPECT_LT(test::rotation_error_rad(d.X_CP, X), kAspectRotTolRad);
-      cv::Mat grey;
-      cv::cvtColor(img, grey, cv::COLOR_BGR2GRAY);
-      const CodeDetection a = detect_code_pattern(grey, kCam, g, absolute_only);
-      if (!a.detected) {
-        ++refused_absolute;
-        EXPECT_NE(a.reason.find("above the gate"), std::string::npos) << a.reason;
-      }
-      std::printf("aspect: h %.2f tilt %.0f: code RMS %.2f px, position error %.2f %% of the "
-                  "distance; absolute gate alone: %s\n",
-                  h, tilt, d.reproj_err_px,
-                  100.0 * test::position_error_m(d.X_CP, X) / X.translation().norm(),
-                  a.detected ? "pose" : a.reason.c_str());
+      EXPECT_NE(d.source, PoseSource::Code);
+      EXPECT_LE(d.reproj_err_px, d.reproj_gate_px);
+      EXPECT_LE(d.edge_rms_px, d.edge_gate_px);
+      EXPECT_LT(test::position_error_m(d.X_CP, X), kRingAspectPosTolPerMetre * X.translation().norm());
+      EXPECT_LT(test::rotation_error_rad(d.X_CP, X), kRingAspectRotTolRad);
+      const RingDetection a = detect_ring_target(img, kCam, g, absolute_only);
+      if (!a.detected) ++refused_absolute;
+      std::printf("ring aspect: h %.1f tilt %.0f: %s, centre RMS %.2f px (gate %.2f), conic RMS %.2f px "
+                  "(gate %.2f), position error %.2f %%, rotation %.2f deg; absolute gates alone: %s\n",
+                  h, tilt, to_string(d.source), d.reproj_err_px, d.reproj_gate_px, d.edge_rms_px,
+                  d.edge_gate_px, 100.0 * test::position_error_m(d.X_CP, X) / X.translation().norm(),
+                  test::rotation_error_rad(d.X_CP, X) * 180.0 / M_PI,
+                  a.detected ? "pose" : a.reason.substr(0, 120).c_str());
     }
   }
-  // The absolute gate alone refuses some of these views (observed: the six at 0.15-0.35 m,
-  // RMS 1.15-1.48 px; position errors with the relative gate at most 0.43 % of the
-  // distance); at least one, or the relative gate is not what lets them through.
+  // Observed: the absolute gates refuse three of the eight (1.0 m both tilts, 1.5 m tilt 0).
   EXPECT_GE(refused_absolute, 1);
 }
 

@@ -25,6 +25,8 @@ TEST(VisionParams, SaveLoadRoundTrip) {
   p.code_max_mismatch_fraction = 0.05;
   p.centre_ring_pose = false;
   p.tracked_yaw_sigma_rad = 0.1;
+  p.max_reproj_fraction = 0.02;
+  p.max_centre_reproj_fraction = 0.03;
   const YAML::Node node = YAML::Load(yaml_to_string(params_to_yaml(p)));
   VisionParams q;
   read_params(node, "roundtrip.yaml", q);
@@ -40,6 +42,8 @@ TEST(VisionParams, SaveLoadRoundTrip) {
   EXPECT_EQ(q.code_max_mismatch_fraction, 0.05);
   EXPECT_FALSE(q.centre_ring_pose);
   EXPECT_EQ(q.tracked_yaw_sigma_rad, 0.1);
+  EXPECT_EQ(q.max_reproj_fraction, 0.02);
+  EXPECT_EQ(q.max_centre_reproj_fraction, 0.03);
 }
 
 TEST(VisionParams, BadValueNamesField) {
@@ -58,6 +62,12 @@ TEST(VisionParams, BadValueNamesField) {
   expect_names("ratio_tol: -1", "ratio_tol");
   expect_names("no_such_key: 1", "no_such_key");
   expect_names("code_threshold_block_px: 100", "code_threshold_block_px");
+  // The scaling gates: a negative fraction, or one that lets a misidentified ring through
+  // (neighbouring sets are about one extent apart in the image), is refused by name.
+  expect_names("max_reproj_fraction: -0.01", "max_reproj_fraction");
+  expect_names("max_reproj_fraction: 0.2", "max_reproj_fraction");
+  expect_names("max_centre_reproj_fraction: 0.5", "max_centre_reproj_fraction");
+  expect_names("code_max_reproj_fraction: 0.1", "code_max_reproj_fraction");
   expect_names("code_min_cell_px: 2", "code_min_cell_px");
   expect_names("code_max_mismatch_fraction: 0.5", "code_max_mismatch_fraction");
   expect_names("code_min_corners: 3", "code_min_corners");

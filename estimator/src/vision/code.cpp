@@ -13,6 +13,7 @@
 
 #include "lander/estimator/camera_cv.h"
 #include "vision/internal.h"
+#include "vision/internal.h"
 
 namespace lander {
 
@@ -975,7 +976,9 @@ CodeDetection detect_code_impl(const cv::Mat& grey, const CameraModel& cam, cons
   cv::Scalar corner_mean, corner_sd;
   cv::meanStdDev(ip, corner_mean, corner_sd);
   const double spread_px = std::hypot(corner_sd[0], corner_sd[1]);
-  const double reproj_gate = std::max(p.code_max_reproj_px, p.code_max_reproj_fraction * spread_px);
+  const double reproj_gate =
+      vision_internal::scaled_gate(p.code_max_reproj_px, p.code_max_reproj_fraction, spread_px);
+  d.reproj_gate_px = reproj_gate;
   if (!(d.reproj_rms_px <= reproj_gate)) {
     std::ostringstream os;
     os << "corner reprojection " << d.reproj_rms_px << " px above the gate " << reproj_gate

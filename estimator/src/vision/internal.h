@@ -109,6 +109,33 @@ inline double clamp_coord(double v) {
   return v >= -kMaxIntCoord ? std::min(v, kMaxIntCoord) : -kMaxIntCoord;
 }
 
+// The gates that grow with the target's size in the image (issue 10/12: one rule for every pose
+// source). A relative calibration error (pixel aspect, focal length, distortion) stretches the
+// image about the principal point, and the residual no pose explains grows in proportion to
+// the target's extent in the frame: a gate in absolute pixels refuses exactly the close views
+// the landing needs. Each gate is the larger of its absolute value and fraction x extent.
+inline double scaled_gate(double absolute_px, double fraction, double extent_px) {
+  return std::max(absolute_px, fraction * extent_px);
+}
+// One ring set's image for ring_extent_px(): its centre and its outer circle's semi-axes (px).
+struct SetImage {
+  Eigen::Vector2d centre;
+  double a{0.0}, b{0.0};
+};
+// The ring sets' extent in the image: the RMS distance of their outer circles' points from the
+// centres' centroid, sqrt(mean |c_i - c|^2 + mean (a_i^2 + b_i^2) / 2) (px). A lone central
+// pair has the extent of its outer circle; seven sets at 2 m about 200 px.
+inline double ring_extent_px(const std::vector<SetImage>& sets) {
+  if (sets.empty()) return 0.0;
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (const auto& s : sets) mean += s.centre;
+  mean /= static_cast<double>(sets.size());
+  double sum = 0.0;
+  for (const auto& s : sets) sum += (s.centre - mean).squaredNorm() + 0.5 * (s.a * s.a + s.b * s.b);
+  const double e = std::sqrt(sum / static_cast<double>(sets.size()));
+  return std::isfinite(e) ? e : 0.0;
+}
+
 RefineResult refine_pose_conics(const Eigen::Matrix3d& K, const Eigen::Isometry3d& X_CP0,
                                 const std::vector<ConicObservation>& obs, int points_per_ellipse,
                                 int max_iter,

@@ -33,6 +33,8 @@ void VisionParams::validate() const {
   require(ratio_tol > 0 && ratio_tol < 0.5, "ratio_tol", "must be in (0, 0.5)");
   require(min_rings >= 4, "min_rings", "must be >= 4 (planar PnP needs four points)");
   require(max_centre_reproj_px > 0, "max_centre_reproj_px", "must be > 0");
+  require(max_centre_reproj_fraction >= 0 && max_centre_reproj_fraction <= 0.1,
+          "max_centre_reproj_fraction", "must be in [0, 0.1]");
   require(unfiltered_max_minor_px > 0, "unfiltered_max_minor_px", "must be > 0");
   require(unfiltered_min_ellipses >= 0, "unfiltered_min_ellipses", "must be >= 0");
   require(layout_ratio_tol > 0 && layout_ratio_tol < 0.5, "layout_ratio_tol", "must be in (0, 0.5)");
@@ -52,6 +54,8 @@ void VisionParams::validate() const {
   require(refine_points_per_ellipse >= 6, "refine_points_per_ellipse", "must be >= 6");
   require(max_reproj_err_px > 0, "max_reproj_err_px", "must be > 0");
   require(max_edge_residual_px > 0, "max_edge_residual_px", "must be > 0");
+  require(max_reproj_fraction >= 0 && max_reproj_fraction <= 0.05, "max_reproj_fraction",
+          "must be in [0, 0.05]");
   require(rho_max > 0 && rho_max <= 1, "rho_max", "must be in (0, 1]");
   require(keyframe_reset_after >= 0, "keyframe_reset_after", "must be >= 0");
   require(roi_margin >= 0, "roi_margin", "must be >= 0");

@@ -74,6 +74,9 @@ struct CodeDetection {
   std::vector<Eigen::Vector2d> corners_px;   ///< matched sub-pixel corners (undistorted px)
   std::vector<Eigen::Vector2d> corners_P_m;  ///< the same corners in P (m), z = 0
   double reproj_rms_px{0.0};        ///< RMS corner reprojection error after refinement (px)
+  double reproj_gate_px{0.0};       ///< the corner gate it was held to (px): the larger of
+                                    ///< code_max_reproj_px and code_max_reproj_fraction x the
+                                    ///< corners' RMS spread
 };
 
 // Runs steps 1-5 on an 8-bit grey frame of `camera`'s size. Never throws for image content.

@@ -117,6 +117,11 @@ struct RingDetection {
                                     ///< for a code-only pose the RMS corner error (px)
   double reproj_err_sum_px2{0.0};   ///< eq. (30) as written: sum of squared errors (px^2)
   double edge_rms_px{0.0};          ///< RMS conic-cost residual after refinement (px)
+  /// The gates this pose passed (px): max_reproj_err_px and max_edge_residual_px, each grown
+  /// with the sets' extent in the image by max_reproj_fraction; for a code-only pose the code's
+  /// corner gate (and 0 for the conic one). reproj_err_px <= reproj_gate_px for every pose.
+  double reproj_gate_px{0.0};
+  double edge_gate_px{0.0};
   int refine_iterations{0};
 
   bool keyframe{false};

@@ -62,6 +62,10 @@ struct VisionParams {
                                      ///< centres, the solution that fits the six conics (and
                                      ///< clearly better than any other P3P solution)
   double max_centre_reproj_px{3.0};  ///< centre outlier gate after the initial PnP (px)
+  /// The centre gate also grows with the ring sets' extent in the image (vision internal
+  /// ring_extent_px): the larger of max_centre_reproj_px and this fraction of it. See
+  /// max_reproj_fraction; 0 keeps the absolute gate alone.
+  double max_centre_reproj_fraction{0.05};
   // ---- unfiltered pass (issue 12: far and grazing views) ----
   bool unfiltered_pass{true};        ///< no pose from the frame, and the failed passes found
                                      ///< at least unfiltered_min_ellipses small ellipses: the
@@ -119,6 +123,12 @@ struct VisionParams {
   int refine_points_per_ellipse{24};  ///< edge points per ellipse in the conic cost
   double max_reproj_err_px{2.0};     ///< eq. 30 RMS above this rejects the frame (px)
   double max_edge_residual_px{1.5};  ///< conic-cost RMS above this rejects the frame (px)
+  /// Both gates above also grow with the ring sets' extent in the image: each is the larger of
+  /// its absolute value and this fraction of the extent (the RMS distance of the outer
+  /// circles' points from the centres' centroid). A calibration that is off by a fraction
+  /// of the focal length in one axis leaves residuals in proportion to that extent, largest
+  /// in the last metre; 0 keeps the absolute gates alone.
+  double max_reproj_fraction{0.012};
 
   // ---- keyframes (eq. 17-18) ----
   double rho_max{1e-3};              ///< reliability threshold on rho (dimensionless): about a
@@ -148,10 +158,11 @@ struct VisionParams {
   double code_max_reproj_px{1.0};    ///< corner reprojection RMS gate after refinement (px)
   /// The gate also grows with the code's size in the image: the larger of code_max_reproj_px
   /// and this fraction of the corners' RMS distance from their centroid (px). A camera whose
-  /// pixel aspect differs from its calibration by 0.85 % leaves 1.0-1.5 px of RMS at 0.2-0.4 m
-  /// (the corners then span the frame) that no pose explains, while the identity is certain
-  /// (hundreds of read cells agree with the map); 0 keeps the absolute gate alone.
-  double code_max_reproj_fraction{0.005};
+  /// pixel aspect differs from its calibration by delta leaves about delta / 2 x that spread of
+  /// RMS that no pose explains (1.0-1.5 px at 0.85 % and 0.2-0.4 m, 1.4-3.5 px at 2 %), while the
+  /// identity is certain (hundreds of read cells agree with the map). 0.012 holds up to ~2.4 %,
+  /// as the ring gates (max_reproj_fraction); 0 keeps the absolute gate alone.
+  double code_max_reproj_fraction{0.012};
   bool code_local_white{true};       ///< when one level for all cells gives no placement, read
                                      ///< each cell against its local white (shadows)
   bool code_search_region{true};     ///< with a pose (this frame's rings or the track), search
@@ -205,6 +216,7 @@ void visit_fields(V& v, VisionParams& p) {
   v("min_rings", p.min_rings);
   v("three_ring_pose", p.three_ring_pose);
   v("max_centre_reproj_px", p.max_centre_reproj_px);
+  v("max_centre_reproj_fraction", p.max_centre_reproj_fraction);
   v("unfiltered_pass", p.unfiltered_pass);
   v("unfiltered_max_minor_px", p.unfiltered_max_minor_px);
   v("unfiltered_min_ellipses", p.unfiltered_min_ellipses);
@@ -226,6 +238,7 @@ void visit_fields(V& v, VisionParams& p) {
   v("refine_points_per_ellipse", p.refine_points_per_ellipse);
   v("max_reproj_err_px", p.max_reproj_err_px);
   v("max_edge_residual_px", p.max_edge_residual_px);
+  v("max_reproj_fraction", p.max_reproj_fraction);
   v("rho_max", p.rho_max);
   v("keyframe_reset_after", p.keyframe_reset_after);
   v("tracking", p.tracking);
