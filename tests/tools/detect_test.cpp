@@ -20,6 +20,7 @@
 #include "tools/support/cli.h"
 #include "lander/estimator/types.h"
 #include "lander/estimator/vision_conic.h"
+#include "lander/estimator/vision_params.h"
 
 namespace lander {
 namespace {
@@ -93,6 +94,12 @@ TEST(DetectCli, SyntheticCloseRangePngGivesItsPose) {
   const Eigen::Quaterniond qd(q.at(0).get<double>(), q.at(1).get<double>(), q.at(2).get<double>(),
                               q.at(3).get<double>());
   EXPECT_LT(qd.angularDistance(Eigen::Quaterniond(X.linear())), kRotTolRad) << r.output;
+  // The pose reports the gate it passed: at least the absolute code gate (1 px), and the
+  // error within it.
+  const double gate = test::number_at(j, "reproj_gate_px");
+  EXPECT_GE(gate, VisionParams{}.code_max_reproj_px) << r.output;
+  EXPECT_LE(test::number_at(j, "reproj_err_px"), gate) << r.output;
+  EXPECT_EQ(test::number_at(j, "code.reproj_gate_px"), gate) << r.output;
 }
 
 TEST(DetectCli, MissingImageIsNamedWithExitCode2) {

@@ -63,8 +63,8 @@ int run_detect(const Args& args) {
     const Eigen::Quaterniond q(d.X_CP.linear());
     std::cout << "  p_CP_m     " << p.x() << " " << p.y() << " " << p.z() << "\n"
               << "  q_CP_wxyz  " << q.w() << " " << q.x() << " " << q.y() << " " << q.z() << "\n"
-              << "  reproj_err " << d.reproj_err_px << " px (eq. 30 RMS), conic residual "
-              << d.edge_rms_px << " px\n";
+              << "  reproj_err " << d.reproj_err_px << " px (eq. 30 RMS; gate " << d.reproj_gate_px
+              << " px), conic residual " << d.edge_rms_px << " px (gate " << d.edge_gate_px << " px)\n";
   }
   for (const auto& c : d.centres) {
     std::cout << "  ring " << c.ring_id << " centre " << c.centre_image_px.x() << " "

@@ -1363,7 +1363,8 @@ std::string to_json(const RingDetection& d) {
                {"local_white", d.code.local_white},
                {"corners", d.code.corners_px.size()},
                {"rotation", d.code.placement.rotation},
-               {"reproj_rms_px", d.code.reproj_rms_px}};
+               {"reproj_rms_px", d.code.reproj_rms_px},
+               {"reproj_gate_px", d.code.reproj_gate_px}};
   j["p_CP_m"] = {p.x(), p.y(), p.z()};
   j["q_CP_wxyz"] = {q.w(), q.x(), q.y(), q.z()};
   Json cov = Json::array();
@@ -1376,6 +1377,8 @@ std::string to_json(const RingDetection& d) {
   j["reproj_err_px"] = d.reproj_err_px;
   j["reproj_err_sum_px2"] = d.reproj_err_sum_px2;
   j["edge_rms_px"] = d.edge_rms_px;
+  j["reproj_gate_px"] = d.reproj_gate_px;  // the gates the pose passed (0 when none)
+  j["edge_gate_px"] = d.edge_gate_px;
   j["keyframe"] = d.keyframe;
   j["keyframe_status"] = to_string(d.keyframe_status);
   j["rho"] = d.rho;
