@@ -1377,7 +1377,7 @@ std::string to_json(const RingDetection& d) {
   j["reproj_err_px"] = d.reproj_err_px;
   j["reproj_err_sum_px2"] = d.reproj_err_sum_px2;
   j["edge_rms_px"] = d.edge_rms_px;
-  j["reproj_gate_px"] = d.reproj_gate_px;  // the gates the pose passed (0 when none)
+  j["reproj_gate_px"] = d.reproj_gate_px;  // the gates passed (or failed last; 0: no pose tried)
   j["edge_gate_px"] = d.edge_gate_px;
   j["keyframe"] = d.keyframe;
   j["keyframe_status"] = to_string(d.keyframe_status);

@@ -120,6 +120,7 @@ struct RingDetection {
   /// The gates this pose passed (px): max_reproj_err_px and max_edge_residual_px, each grown
   /// with the sets' extent in the image by max_reproj_fraction; for a code-only pose the code's
   /// corner gate (and 0 for the conic one). reproj_err_px <= reproj_gate_px for every pose.
+  /// Without a pose: the gates the last pose tried failed (0 when none was tried).
   double reproj_gate_px{0.0};
   double edge_gate_px{0.0};
   int refine_iterations{0};
