@@ -13,7 +13,6 @@
 
 #include "lander/estimator/camera_cv.h"
 #include "vision/internal.h"
-#include "vision/internal.h"
 
 namespace lander {
 

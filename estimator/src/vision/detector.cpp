@@ -332,19 +332,19 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
     } catch (const cv::Exception&) {
       return std::nullopt;
     }
+    auto max_err = [&](const Eigen::Isometry3d& X) {
+      double mx = 0.0;
+      for (int k : set) {
+        mx = std::max(mx, (project(K, X, target.ring(pairs[k].ring_id).centre_P_m) - pairs[k].centre).norm());
+      }
+      return mx;
+    };
     std::optional<Fit> fit;
     for (std::size_t s = 0; s < rvecs.size(); ++s) {
       // IPPE's closed form is exact for exact centres, not the least-squares pose. Refined on
       // the centres, the largest error measures the layout's consistency rather than the
       // closed form's (under a 2 % pixel aspect error 23 px at 1 m against ~5 px refined);
       // the refinement is kept only where it lowers that largest error.
-      auto max_err = [&](const Eigen::Isometry3d& X) {
-        double mx = 0.0;
-        for (int k : set) {
-          mx = std::max(mx, (project(K, X, target.ring(pairs[k].ring_id).centre_P_m) - pairs[k].centre).norm());
-        }
-        return mx;
-      };
       Eigen::Isometry3d X = pose_from_cv(rvecs[s], tvecs[s]);
       if (X.translation().z() <= 0) continue;
       double mx = max_err(X);
@@ -395,8 +395,7 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
       why = "; three-set pose: no P3P solution in front refined";
       return std::nullopt;
     }
-    const double edge_gate =
-        vision_internal::scaled_gate(p.max_edge_residual_px, p.max_reproj_fraction, extent_of(set));
+    const double edge_gate = vision_internal::ring_gates(p, extent_of(set)).edge_px;
     if (!(fits[0].first <= edge_gate)) {
       os << "; three-set pose: conic residual " << fits[0].first << " px (gate " << edge_gate
          << " px)";
@@ -528,9 +527,9 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
     }
     d.reproj_err_sum_px2 = sum;
     d.reproj_err_px = std::sqrt(sum / chosen.size());
-    const double extent = extent_of(chosen);
-    d.reproj_gate_px = vision_internal::scaled_gate(p.max_reproj_err_px, p.max_reproj_fraction, extent);
-    d.edge_gate_px = vision_internal::scaled_gate(p.max_edge_residual_px, p.max_reproj_fraction, extent);
+    const vision_internal::RingGates gates = vision_internal::ring_gates(p, extent_of(chosen));
+    d.reproj_gate_px = gates.reproj_px;
+    d.edge_gate_px = gates.edge_px;
     if (!(d.reproj_err_px <= d.reproj_gate_px) || !(d.edge_rms_px <= d.edge_gate_px)) {
       std::ostringstream os;
       os << "reprojection error " << d.reproj_err_px << " px (gate " << d.reproj_gate_px
@@ -767,9 +766,9 @@ void combine_sources(RingDetection& d, const std::vector<EllipseCandidate>& cand
     if (c.outer_index < 0 || c.outer_index >= static_cast<int>(cands.size())) continue;
     set_images.push_back({c.centre_px, cands[c.outer_index].undist.a, cands[c.outer_index].undist.b});
   }
-  const double extent = vision_internal::ring_extent_px(set_images);
-  const double reproj_gate = vision_internal::scaled_gate(p.max_reproj_err_px, p.max_reproj_fraction, extent);
-  const double edge_gate = vision_internal::scaled_gate(p.max_edge_residual_px, p.max_reproj_fraction, extent);
+  const vision_internal::RingGates gates = vision_internal::ring_gates(p, vision_internal::ring_extent_px(set_images));
+  const double reproj_gate = gates.reproj_px;
+  const double edge_gate = gates.edge_px;
   std::vector<vision_internal::PointObservation> pts;
   if (d.code.detected) {
     for (std::size_t i = 0; i < d.code.corners_px.size(); ++i) {

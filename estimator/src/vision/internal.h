@@ -117,6 +117,16 @@ inline double clamp_coord(double v) {
 inline double scaled_gate(double absolute_px, double fraction, double extent_px) {
   return std::max(absolute_px, fraction * extent_px);
 }
+// The ring path's two acceptance gates for ring sets of `extent_px` (ring_extent_px): the
+// centres' reprojection RMS (max_reproj_err_px) and the conic residual (max_edge_residual_px),
+// each grown by max_reproj_fraction.
+struct RingGates {
+  double reproj_px, edge_px;
+};
+inline RingGates ring_gates(const VisionParams& p, double extent_px) {
+  return {scaled_gate(p.max_reproj_err_px, p.max_reproj_fraction, extent_px),
+          scaled_gate(p.max_edge_residual_px, p.max_reproj_fraction, extent_px)};
+}
 // One ring set's image for ring_extent_px(): its centre and its outer circle's semi-axes (px).
 struct SetImage {
   Eigen::Vector2d centre;
