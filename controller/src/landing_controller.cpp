@@ -228,7 +228,7 @@ void LandingController::expand_search(double t_exp_s, Setpoint* sp) {
   yaw_hold_ = std::remainder(search_yaw0_ + L.search_yaw_rate_degps * M_PI / 180.0 * t_exp_s,
                              2 * M_PI);
   sp->yaw_rad = yaw_hold_;
-  climb(t_exp_s, sp);
+  climb(t_exp_s, L.search_climb_rate_mps, sp);
 }
 
 bool LandingController::broadcast_platform(double t_s, Eigen::Vector2d* p,
@@ -279,17 +279,15 @@ Setpoint LandingController::search_at_broadcast(double t_s, double dt, const Nav
   return sp;
 }
 
-// The search's climb: from hold_p_'s height at search_climb_rate_mps, t_climb_s after it
-// began, to at most search_max_height_m above the platform top (never below the height the
-// search started at).
-void LandingController::climb(double t_climb_s, Setpoint* sp) const {
+// The search's climb: from hold_p_'s height at rate_mps, t_climb_s after it began, to at
+// most search_max_height_m above the platform top (never below the height the search
+// started at).
+void LandingController::climb(double t_climb_s, double rate_mps, Setpoint* sp) const {
   const LandingParams& L = p_.landing;
-  const double z_top = hold_p_.z() + L.search_climb_rate_mps * t_climb_s;
+  const double z_top = hold_p_.z() + rate_mps * t_climb_s;
   const double z_max = std::max(hold_p_.z(), platform_z() + L.search_max_height_m);
   sp->p_W_m.z() = std::min(z_top, z_max);
-  if (sp->p_W_m.z() < z_max && L.search_climb_rate_mps > 0) {
-    sp->v_W_mps.z() = L.search_climb_rate_mps;
-  }
+  if (sp->p_W_m.z() < z_max && rate_mps > 0) sp->v_W_mps.z() = rate_mps;
 }
 
 void LandingController::give_up(double t_s, const std::string& why, const NavState& nav) {
@@ -609,8 +607,13 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       sp.v_W_mps.head<2>() = off_v;
       // With the spiral, a climb for a wider view, as after a loss (never below the height the
       // search started at): a start low over a cart driving away leaves the view before the
-      // first sweep ends.
-      if (t_spiral > 0.0) climb(t_spiral, &sp);
+      // first sweep ends. With search_first_climb_rate_mps the climb starts with the sweep
+      // (it is faster than the spiral's, so it stays above that climb's height throughout).
+      if (L.search_first_climb_rate_mps > 0.0) {
+        climb(t_s - search_t0_, std::max(L.search_first_climb_rate_mps, L.search_climb_rate_mps), &sp);
+      } else if (t_spiral > 0.0) {
+        climb(t_spiral, L.search_climb_rate_mps, &sp);
+      }
       diag_.search_centre_W_m = hold_p_;
       return sp;
     }

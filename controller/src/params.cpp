@@ -163,6 +163,7 @@ void LandingParams::validate() const {
   require(search_predict_max_s >= 0, "search_predict_max_s", "must be >= 0");
   require(search_expand_after_s >= 0, "search_expand_after_s", "must be >= 0");
   require(search_climb_rate_mps >= 0, "search_climb_rate_mps", "must be >= 0");
+  require(search_first_climb_rate_mps >= 0, "search_first_climb_rate_mps", "must be >= 0");
   require(search_max_height_m > 0, "search_max_height_m", "must be > 0");
   require(telemetry_max_age_s >= 0, "telemetry_max_age_s", "must be >= 0");
   require(telemetry_arrive_radius_m > 0, "telemetry_arrive_radius_m", "must be > 0");

@@ -206,6 +206,52 @@ TEST(Search, SpiralFindsAPlatformOutOfViewOfTheStart) {
   EXPECT_NE(h.transitions.front().reason.find("target not found in"), std::string::npos);
 }
 
+// The envelope's "target not found in 30 s of search" class (regression/envelope: starts
+// 5-10 m beside the cart and 6-8 m high, the cart driving off at ~1 m/s): from a low start
+// the wide image axis reaches ~6 m, and the heading sweep brings it round only after the cart
+// has left that circle. Vision is vetoed beyond kMaxViewAngle_deg off the platform normal,
+// the estimator's limit at these ranges (lander bench estimator: 45 deg views detected at
+// 10-15 m, 60 deg not). Climbing from the search's start (search_first_climb_rate_mps)
+// widens the view while the sweep turns and finds the cart; without it the search gives up.
+TEST(Search, FirstClimbFindsACartDrivingAwayFromALowStart) {
+  constexpr double kMaxViewAngle_deg = 50.0;
+  LandingRunConfig cfg;
+  cfg.platform.p0_W_m = Eigen::Vector3d(6.0, 0.0, 0.8);
+  cfg.platform.v_W_mps = Eigen::Vector3d(0.9, 0.0, 0.0);
+  cfg.start_W_m = Eigen::Vector3d(0.0, 0.0, 7.0);
+  cfg.controller.landing.observe_frames = kNeverApproach;
+  cfg.max_time_s = 35.0;
+  const PlatformTruth plat = cfg.platform;
+  cfg.visible = [plat, kMaxViewAngle_deg](double t, const Eigen::Isometry3d& X_WB) {
+    const Eigen::Vector3d d = X_WB.translation() - plat.p_W(t);
+    return std::atan2(d.head<2>().norm(), d.z()) * 180.0 / M_PI <= kMaxViewAngle_deg;
+  };
+  LandingRunConfig off = cfg;
+  off.controller.landing.search_first_climb_rate_mps = 0.0;
+  const LandingRunResult r0 = run_landing(off);
+  SCOPED_TRACE(r0.describe());
+  ASSERT_FALSE(r0.transitions.empty());
+  EXPECT_EQ(r0.transitions.front().to, Mode::kAborted);
+
+  LandingRunConfig on = cfg;
+  on.controller.landing.search_first_climb_rate_mps = 1.0;
+  double z_max = 0.0;
+  on.on_step = [&](double, const HexModel& m, const LandingController& c) {
+    if (c.mode() == Mode::kSearch) z_max = std::max(z_max, m.p.z());
+  };
+  const LandingRunResult r1 = run_landing(on);
+  SCOPED_TRACE(r1.describe());
+  std::cout << r1.describe() << "highest in search " << z_max << " m\n";
+  ASSERT_FALSE(r1.transitions.empty());
+  EXPECT_EQ(r1.transitions.front().to, Mode::kObserve);
+  // Found during the first heading turn or soon after, not by the spiral's late climb.
+  EXPECT_LT(r1.transitions.front().t_s, on.controller.landing.search_spiral_after_s + 2.0);
+  // Never above search_max_height_m (over the ground before any fix: platform_z() is 0
+  // then), with 0.3 m for the position loop's overshoot; and it did climb.
+  EXPECT_LT(z_max, on.controller.landing.search_max_height_m + 0.3);
+  EXPECT_GT(z_max, cfg.start_W_m.z() + 1.0);
+}
+
 // A platform that is never in view: the search gives up after search_give_up_s, also when
 // that is set shorter; the decision log records the abort.
 TEST(Search, GivesUpAfterTheConfiguredTime) {

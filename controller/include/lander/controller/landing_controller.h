@@ -249,8 +249,9 @@ class LandingController {
   // The expanding part of a search around a (moving) centre, t_exp_s after it began: the
   // outward spiral added to sp, the heading sweep and the climb.
   void expand_search(double t_exp_s, Setpoint* sp);
-  // The search's climb t_climb_s after it began: sets sp's height and vertical velocity.
-  void climb(double t_climb_s, Setpoint* sp) const;
+  // The search's climb t_climb_s after it began at rate_mps: sets sp's height and vertical
+  // velocity.
+  void climb(double t_climb_s, double rate_mps, Setpoint* sp) const;
   // Ends the landing in aborted with `why` (search_give_up_s, or the last attempt failed).
   void give_up(double t_s, const std::string& why, const NavState& nav);
   // Ends the current attempt without a landing: to `next` (go-around or search), or to
