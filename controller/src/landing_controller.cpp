@@ -408,6 +408,7 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
       // The history is kept: search flies to its prediction of the platform (see
       // search_predict_max_s) and a re-acquisition continues it.
       hold_p_ = nav.p_W_m;  // keep_min_height raises it in the search's first step
+      search_climb_z_ = -std::numeric_limits<double>::infinity();
       search_after_loss_ = tracker_.has_fix();
       search_t_seen_ = search_after_loss_ ? tracker_.latest().t_s : t_s;
       search_centre_ = nav.p_W_m.head<2>();
@@ -587,7 +588,12 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       // fly to it, as before issue 10 (and sweep afresh once it is too old).
       const bool had_fix = tracker_.has_fix();
       Eigen::Vector2d p_pred, v_pred;
+      // What the search's climb gained is kept: a first fix at the view's edge (not yet
+      // acquired) would otherwise take the vehicle back down to where the search began,
+      // narrowing the view while it flies to that fix (and the sweep after it would climb
+      // again from there). Only then: the climb itself ramps from hold_p_'s height.
       if (predict_platform(t_s, &p_pred, &v_pred)) {
+        hold_p_.z() = std::max(hold_p_.z(), search_climb_z_);
         hold_p_.head<2>() = p_pred;
         Setpoint sp = hold(hold_p_);
         sp.v_W_mps.head<2>() = v_pred;
@@ -595,6 +601,7 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
         return sp;
       }
       if (had_fix) {
+        hold_p_.z() = std::max(hold_p_.z(), search_climb_z_);
         search_t0_ = t_s;
         search_yaw0_ = yaw_hold_;
       }
@@ -624,6 +631,7 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       } else if (t_spiral > 0.0) {
         climb(t_spiral, L.search_climb_rate_mps, &sp);
       }
+      search_climb_z_ = std::max(search_climb_z_, sp.p_W_m.z());
       diag_.search_centre_W_m = hold_p_;
       return sp;
     }

@@ -235,9 +235,11 @@ TEST(Search, FirstClimbFindsACartDrivingAwayFromALowStart) {
 
   LandingRunConfig on = cfg;
   on.controller.landing.search_first_climb_rate_mps = 1.0;
-  double z_max = 0.0;
-  on.on_step = [&](double, const HexModel& m, const LandingController& c) {
+  double z_max = 0.0, z_sp_climbing = -1.0;
+  constexpr double kClimbCheck_s = 1.5;  // in the climb, before the cart is found
+  on.on_step = [&](double t, const HexModel& m, const LandingController& c) {
     if (c.mode() == Mode::kSearch) z_max = std::max(z_max, m.p.z());
+    if (c.mode() == Mode::kSearch && t <= kClimbCheck_s) z_sp_climbing = c.diagnostics().setpoint.p_W_m.z();
   };
   const LandingRunResult r1 = run_landing(on);
   SCOPED_TRACE(r1.describe());
@@ -250,6 +252,50 @@ TEST(Search, FirstClimbFindsACartDrivingAwayFromALowStart) {
   // then), with 0.3 m for the position loop's overshoot; and it did climb.
   EXPECT_LT(z_max, on.controller.landing.search_max_height_m + 0.3);
   EXPECT_GT(z_max, cfg.start_W_m.z() + 1.0);
+  // The setpoint ramps at the configured rate after the 0.3 s delay (the mode machine runs at
+  // 30 Hz: one period at 1 m/s is 3.3 cm of slack).
+  EXPECT_NEAR(z_sp_climbing, cfg.start_W_m.z() + 1.0 * (kClimbCheck_s - 0.3), 0.035);
+}
+
+// A first fix during that climb that does not become an acquisition (fewer than
+// reacquire_frames keyframes: the target at the view's edge) must not take the vehicle back
+// down to where the search began while it flies to the fix: in far_start.yaml's runs the
+// setpoint fell from 10 m to 6 m (once to 2.4 m) at such a fix, narrowing the view.
+TEST(Search, FirstClimbKeepsItsHeightOverAFixNotYetAcquired) {
+  constexpr double kMaxViewAngle_deg = 50.0;
+  LandingRunConfig cfg;
+  cfg.platform.p0_W_m = Eigen::Vector3d(9.0, 0.0, 0.8);  // 55 deg off the 7 m start
+  cfg.platform.v_W_mps.setZero();
+  cfg.start_W_m = Eigen::Vector3d(0.0, 0.0, 7.0);
+  cfg.controller.landing.search_first_climb_rate_mps = 1.0;
+  cfg.max_time_s = 25.0;
+  const PlatformTruth plat = cfg.platform;
+  const int allowed = cfg.controller.landing.reacquire_frames - 1;
+  int seen = 0;
+  double t_fix = -1.0;
+  cfg.visible = [&](double t, const Eigen::Isometry3d& X_WB) {
+    const Eigen::Vector3d d = X_WB.translation() - plat.p_W(t);
+    if (std::atan2(d.head<2>().norm(), d.z()) * 180.0 / M_PI > kMaxViewAngle_deg) return false;
+    if (seen >= allowed) return false;
+    if (seen++ == 0) t_fix = t;
+    return true;
+  };
+  double z_at_fix = -1.0, z_min_after = 1e9;
+  cfg.on_step = [&](double t, const HexModel&, const LandingController& c) {
+    if (c.mode() != Mode::kSearch || t_fix < 0.0) return;
+    const double z = c.diagnostics().setpoint.p_W_m.z();
+    if (z_at_fix < 0.0) z_at_fix = z;
+    z_min_after = std::min(z_min_after, z);
+  };
+  const LandingRunResult r = run_landing(cfg);
+  SCOPED_TRACE(r.describe());
+  std::cout << r.describe() << "fix at " << t_fix << " s, setpoint height then " << z_at_fix
+            << " m, lowest after " << z_min_after << " m\n";
+  ASSERT_GT(t_fix, 0.0);
+  EXPECT_TRUE(r.transitions.empty());  // never acquired: the search goes on
+  EXPECT_GT(z_at_fix, cfg.start_W_m.z() + 1.0);  // the fix came during the climb
+  // Never lower than where the fix found it (the climb setpoint is a ramp: no slack needed).
+  EXPECT_GE(z_min_after, z_at_fix);
 }
 
 // A platform that is never in view: the search gives up after search_give_up_s, also when

@@ -299,6 +299,8 @@ class LandingController {
   bool started_{false};
   double yaw_hold_{0.0};         // heading setpoint (rad)
   double search_t0_{0.0};        // start of the current sweep pattern (s)
+  double search_climb_z_{-std::numeric_limits<double>::infinity()};  // highest climb setpoint of
+                                 // the first search, kept over a fix not yet acquired (m)
   double search_yaw0_{0.0};      // heading at search entry (rad)
   double last_outer_t_{0.0};
   Eigen::Vector3d hold_p_{Eigen::Vector3d::Zero()};    // search / go-around target
