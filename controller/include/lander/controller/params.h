@@ -189,13 +189,14 @@ struct LandingParams {
   double approach_switch_error_m{0.05};   ///< |Diff| at t >= t_d to enter recovery (paper 5 cm)
   double approach_settle_timeout_s{0.3};  ///< after t_d: enter recovery anyway if in view (s);
                                           ///< short, the cart does not wait
-  bool approach_match_velocities{false};  ///< true: the approach cubic starts at the vehicle's
-                                          ///< velocity and ends at the platform's horizontal
-                                          ///< velocity (trajectory.h). false (default): eq. 29
-                                          ///< from rest to rest, which brakes an entry made
-                                          ///< while following a fast cart (24 deg of roll at
-                                          ///< 1.4 m/s). Off until a paired envelope run says
-                                          ///< it is better (README, "Landing decisions")
+  bool approach_match_velocities{true};   ///< true (default since 2026-11-28): the approach
+                                          ///< cubic starts at the vehicle's velocity and ends
+                                          ///< at the platform's horizontal velocity
+                                          ///< (trajectory.h). false: eq. 29 from rest to rest,
+                                          ///< which brakes an entry made while following a
+                                          ///< fast cart (24 deg of roll at 1.4 m/s). The whole
+                                          ///< 200-run envelope decided it (README, "The landing
+                                          ///< envelope")
   // recovery: visual servo and controlled descent (seed 000 section 3.3)
   double descent_rate_mps{0.5};           ///< descent rate high above the platform (m/s)
   double descent_rate_near_mps{0.2};      ///< descent rate below near_height_m (m/s)
