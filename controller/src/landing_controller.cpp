@@ -591,9 +591,9 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       // What the search's climb gained is kept: a first fix at the view's edge (not yet
       // acquired) would otherwise take the vehicle back down to where the search began,
       // narrowing the view while it flies to that fix (and the sweep after it would climb
-      // again from there). Only then: the climb itself ramps from hold_p_'s height.
+      // again from there). Only with a fix: the climb itself ramps from hold_p_'s height.
+      if (had_fix) hold_p_.z() = std::max(hold_p_.z(), search_climb_z_);
       if (predict_platform(t_s, &p_pred, &v_pred)) {
-        hold_p_.z() = std::max(hold_p_.z(), search_climb_z_);
         hold_p_.head<2>() = p_pred;
         Setpoint sp = hold(hold_p_);
         sp.v_W_mps.head<2>() = v_pred;
@@ -601,7 +601,6 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
         return sp;
       }
       if (had_fix) {
-        hold_p_.z() = std::max(hold_p_.z(), search_climb_z_);
         search_t0_ = t_s;
         search_yaw0_ = yaw_hold_;
       }

@@ -206,6 +206,13 @@ TEST(Search, SpiralFindsAPlatformOutOfViewOfTheStart) {
   EXPECT_NE(h.transitions.front().reason.find("target not found in"), std::string::npos);
 }
 
+// Angle of the line of sight from the vehicle to the platform centre off the platform normal
+// (deg): the search tests veto vision beyond the estimator's limit at these ranges.
+double view_angle_deg(const Eigen::Isometry3d& X_WB, const PlatformTruth& plat, double t_s) {
+  const Eigen::Vector3d d = X_WB.translation() - plat.p_W(t_s);
+  return std::atan2(d.head<2>().norm(), d.z()) * 180.0 / M_PI;
+}
+
 // The envelope's "target not found in 30 s of search" class (regression/envelope: starts
 // 5-10 m beside the cart and 6-8 m high, the cart driving off at ~1 m/s): from a low start
 // the wide image axis reaches ~6 m, and the heading sweep brings it round only after the cart
@@ -223,8 +230,7 @@ TEST(Search, FirstClimbFindsACartDrivingAwayFromALowStart) {
   cfg.max_time_s = 35.0;
   const PlatformTruth plat = cfg.platform;
   cfg.visible = [plat, kMaxViewAngle_deg](double t, const Eigen::Isometry3d& X_WB) {
-    const Eigen::Vector3d d = X_WB.translation() - plat.p_W(t);
-    return std::atan2(d.head<2>().norm(), d.z()) * 180.0 / M_PI <= kMaxViewAngle_deg;
+    return view_angle_deg(X_WB, plat, t) <= kMaxViewAngle_deg;
   };
   LandingRunConfig off = cfg;
   off.controller.landing.search_first_climb_rate_mps = 0.0;
@@ -274,8 +280,7 @@ TEST(Search, FirstClimbKeepsItsHeightOverAFixNotYetAcquired) {
   int seen = 0;
   double t_fix = -1.0;
   cfg.visible = [&](double t, const Eigen::Isometry3d& X_WB) {
-    const Eigen::Vector3d d = X_WB.translation() - plat.p_W(t);
-    if (std::atan2(d.head<2>().norm(), d.z()) * 180.0 / M_PI > kMaxViewAngle_deg) return false;
+    if (view_angle_deg(X_WB, plat, t) > kMaxViewAngle_deg) return false;
     if (seen >= allowed) return false;
     if (seen++ == 0) t_fix = t;
     return true;
