@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 namespace lander {
@@ -131,6 +132,77 @@ TEST(Navigation, TracksConstantVelocityFromGps) {
   // the accel-bias state's transient remain).
   EXPECT_NEAR(s.p_W_m.x(), 2.0 * t, 0.01);
   EXPECT_NEAR(s.v_W_mps.x(), 2.0, 0.01);
+}
+
+
+// A multirotor's accelerometer reads its thrust along body z whatever its tilt: roll to
+// 20 deg at 0.5 s (at 40 deg/s) and hold it, the accelerometer reading (0, 0, g / cos) in B.
+ImuSample banked_at(double t) {
+  constexpr double kRate_radps = 40.0 * M_PI / 180.0, kT0 = 0.5, kT1 = 1.0;
+  const double roll = kRate_radps * std::clamp(t - kT0, 0.0, kT1 - kT0);
+  ImuSample s;
+  s.t_s = t;
+  s.accel_B_mps2 = Eigen::Vector3d(0, 0, kG / std::cos(roll));
+  s.gyro_B_radps = Eigen::Vector3d(t >= kT0 && t < kT1 ? kRate_radps : 0.0, 0, 0);
+  return s;
+}
+
+double roll_deg(const NavState& s) {
+  const Eigen::Vector3d up_B = s.q_WB.conjugate() * Eigen::Vector3d::UnitZ();
+  return std::atan2(up_B.y(), up_B.z()) * 180.0 / M_PI;
+}
+
+TEST(Navigation, StartInGpsDropOutIsFlownOnTheGyro) {
+  // One fix at the start, then none (a drop-out from the start): no pair of fixes gives the
+  // GPS-derived acceleration, and plain Mahony would take the thrust axis for "up".
+  auto run = [](bool compensate) {
+    NavigationParams p;
+    p.compensate_accel = compensate;
+    Navigation nav(p);
+    for (int k = 0; k <= 250 * 3; ++k) {
+      const double t = k * 0.004;
+      nav.add_imu(banked_at(t));
+      if (k == 0) {
+        GpsSample g;
+        g.t_s = t;
+        g.p_W_m = Eigen::Vector3d(0, 0, 10);
+        g.v_W_mps = Eigen::Vector3d::Zero();
+        nav.add_gps(g);
+      }
+    }
+    return roll_deg(nav.state());
+  };
+  // Exact gyro: the 20 deg roll is kept to the integration's rounding.
+  EXPECT_NEAR(run(true), 20.0, 0.01);
+  // Plain Mahony (kp 1/s for 2 s of the bank) reads it as a few degrees: the test sees it.
+  EXPECT_LT(run(false), 10.0);
+}
+
+TEST(Navigation, FirstFixAfterDropOutSetsTheVelocity) {
+  // Hover with fixes at 5 Hz, then 3 s without fixes in which the accelerometer reads a
+  // horizontal 1 m/s^2 the fixes do not have (the coasted velocity ends 3 m/s off, far
+  // beyond the residual gate), then fixes at rest again.
+  Navigation nav(NavigationParams{});
+  double v_after_first_fix = NAN;
+  for (int k = 0; k <= 250 * 12; ++k) {
+    const double t = k * 0.004;
+    ImuSample s = imu_at(t, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero());
+    const bool gap = t >= 5.0 && t < 8.0;
+    if (gap) s.accel_B_mps2.x() = 1.0;
+    nav.add_imu(s);
+    if (k % 50 == 0 && !gap) {
+      GpsSample g;
+      g.t_s = t;
+      g.p_W_m = Eigen::Vector3d(0, 0, 10);
+      g.v_W_mps = Eigen::Vector3d::Zero();
+      EXPECT_TRUE(nav.add_gps(g));
+      if (t >= 8.0 && std::isnan(v_after_first_fix)) v_after_first_fix = nav.state().v_W_mps.x();
+    }
+  }
+  EXPECT_EQ(nav.velocity_resets(), 1);
+  // The fix's velocity (exact here), not 3 m/s less a tenth of the innovation.
+  EXPECT_NEAR(v_after_first_fix, 0.0, 1e-9);
+  EXPECT_NEAR(nav.state().v_W_mps.x(), 0.0, 0.05);
 }
 
 }  // namespace

@@ -4,6 +4,16 @@
 #include <cmath>
 
 namespace lander {
+namespace {
+// GPS fixes further apart than this are a gap (a drop-out): the correction from the last fix
+// is held no longer, and the next fix's velocity difference is not an acceleration sample.
+constexpr double kGpsHoldMax_s = 1.0;
+// Before the first two fixes (no interval known yet): a receiver at 2 Hz or more delivers its
+// second fix within this of the first (or its first within this of the start).
+constexpr double kFirstPairMax_s = 0.5;
+// The held error is applied for this many of the last fix intervals after a fix arrives.
+constexpr double kHoldIntervals = 1.5;
+}  // namespace
 
 void NavigationParams::validate() const {
   require(gravity_mps2 > 0, "gravity_mps2", "must be > 0");
@@ -16,6 +26,8 @@ void NavigationParams::validate() const {
   require(accel_lowpass_s > 0, "accel_lowpass_s", "must be > 0");
   require(mahony_k_yaw >= 0, "mahony_k_yaw", "must be >= 0");
   require(yaw_min_accel_mps2 > 0, "yaw_min_accel_mps2", "must be > 0");
+  require(gps_loss_gyro_only_s >= 0 && std::isfinite(gps_loss_gyro_only_s),
+          "gps_loss_gyro_only_s", "must be >= 0 and finite");
   require(std::isfinite(initial_yaw_rad), "initial_yaw_deg", "must be finite");
   require(accel_noise_mps2 > 0, "accel_noise_mps2", "must be > 0");
   require(accel_bias_rw_mps3 >= 0, "accel_bias_rw_mps3", "must be >= 0");
@@ -66,6 +78,7 @@ bool Navigation::add_imu(const ImuSample& imu) {
             Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
             Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX());
     t_s_ = imu.t_s;
+    t_init_s_ = imu.t_s;
     att_init_ = true;
     f_W_lp_ = q_WB_ * f;
     omega_B_ = imu.gyro_B_radps;
@@ -85,12 +98,23 @@ bool Navigation::add_imu(const ImuSample& imu) {
   while (!f_W_hist_.empty() && f_W_hist_.front().first < t_s_ - kHistory_s) f_W_hist_.pop_front();
   Eigen::Vector3d e_B = Eigen::Vector3d::Zero();
   bool use = false;
-  // The GPS-derived correction is only held while fixes keep coming (drop-out: plain Mahony).
-  constexpr double kHoldMax_s = 1.0;
-  if (p_.compensate_accel && have_a_gps_ && t_s_ - t_gps_prev_ < kHoldMax_s) {
+  // The GPS-derived correction is only held while fixes keep coming; in a drop-out the gyro
+  // alone, for up to gps_loss_gyro_only_s, then plain Mahony (header).
+  // The held error covers the interval to the next fix (1.5 intervals, for jitter), no
+  // longer: when fixes stop, the error of the last one (GPS velocity noise differenced: ~2
+  // deg) would otherwise steer the attitude for a whole second.
+  // Before any fix, the time is counted from the first IMU sample: a start in a drop-out
+  // (no second fix within kFirstPairMax_s) is flown on the gyro too, from the attitude at rest.
+  const double since_fix = t_s_ - (t_gps_arrival_s_ >= 0.0 ? t_gps_arrival_s_ : t_init_s_);
+  const double hold_s = std::min(kGpsHoldMax_s, kHoldIntervals * gps_interval_s_);
+  const double lost_after_s = have_a_gps_ ? hold_s : kFirstPairMax_s;
+  if (p_.compensate_accel && have_a_gps_ && since_fix < hold_s) {
     // Error computed at the last GPS fix (add_gps), rotated into B with today's attitude.
     use = e_W_hold_.allFinite() && !e_W_hold_.isZero(0.0);
     e_B = q_WB_.conjugate() * e_W_hold_;
+  } else if (p_.compensate_accel && since_fix >= lost_after_s &&
+             since_fix < lost_after_s + p_.gps_loss_gyro_only_s) {
+    use = false;  // drop-out: gyro only
   } else {
     // Plain Mahony: the specific force in B is taken as "up".
     const double fn = f.norm();
@@ -135,8 +159,16 @@ bool Navigation::add_gps(const GpsSample& gps) {
   const double age = t_s_ - gps.t_s;
   if (age > p_.max_sample_age_s || age < -1e-6) return false;
   // Low-passed GPS acceleration for the attitude correction.
-  if (t_gps_prev_ >= 0 && gps.t_s > t_gps_prev_) {
+  // A gap: fixes had come (the state was GPS-corrected), then none for kGpsHoldMax_s.
+  const bool resumed_after_gap = t_gps_prev_ >= 0 && gps.t_s - t_gps_prev_ >= kGpsHoldMax_s;
+  if (resumed_after_gap) {
+    // After a gap: no correction from this fix; the GPS side restarts from the IMU side's
+    // low-passed acceleration, so the next fixes' differences build on a consistent pair.
+    a_gps_W_ = f_W_lp_ - p_.gravity_mps2 * Eigen::Vector3d::UnitZ();
+    e_W_hold_.setZero();
+  } else if (t_gps_prev_ >= 0 && gps.t_s > t_gps_prev_) {
     const double dtg = gps.t_s - t_gps_prev_;
+    gps_interval_s_ = dtg;
     const Eigen::Vector3d a_raw = (gps.v_W_mps - v_gps_prev_) / dtg;
     a_gps_W_ += (1.0 - std::exp(-dtg / p_.accel_lowpass_s)) * (a_raw - a_gps_W_);
     have_a_gps_ = true;
@@ -162,6 +194,7 @@ bool Navigation::add_gps(const GpsSample& gps) {
     }
   }
   t_gps_prev_ = gps.t_s;
+  t_gps_arrival_s_ = t_s_;
   v_gps_prev_ = gps.v_W_mps;
   const double sd_p[3] = {p_.gps_horizontal_std_m, p_.gps_horizontal_std_m,
                           p_.gps_vertical_std_m};
@@ -178,6 +211,21 @@ bool Navigation::add_gps(const GpsSample& gps) {
     return true;
   }
   const double a = std::max(0.0, age);
+  if (resumed_after_gap && pos_init_) {
+    // Fixes are back after a gap: the velocity is taken from the fix, as at the first fix.
+    // Coasting on the accelerometer may have drifted by more than the residual gate (eq. 27),
+    // and a gated update pulls the state back at a tenth of its gain per fix: seconds of a
+    // velocity metres per second off, with the controller flying on it (a start in a
+    // drop-out, default-0007 of the envelope: 5.9 m/s off at the fix, still 4 m/s 3 s later).
+    // The position keeps its gated update (a receiver's glitch at that fix must not move it).
+    vel_ = gps.v_W_mps + a_W_ * a;
+    for (int i = 0; i < 3; ++i) {
+      P_[i].row(1).setZero();
+      P_[i].col(1).setZero();
+      P_[i](1, 1) = p_.gps_velocity_std_mps * p_.gps_velocity_std_mps;
+    }
+    ++velocity_resets_;
+  }
   for (int i = 0; i < 3; ++i) {
     Eigen::Vector3d x(pos_[i], vel_[i], b_a_[i]);
     // Position then velocity, each a gated scalar update (seed 004 eq. 27). The value at the

@@ -13,8 +13,7 @@
 // the comparison is made in W between two equally low-passed specific forces (time
 // constant accel_lowpass_s, so their lags cancel), at each GPS fix, with the IMU side
 // taken at the time the GPS velocity difference refers to (mid-interval of the two fixes),
-// and the resulting error held until the next fix (for at most 1 s; in a GPS drop-out the
-// filter falls back to plain Mahony):
+// and the resulting error held until the next fix (for 1.5 fix intervals at most):
 //   measured  f^_W = LP(R^_WB f_B),   reference  f_W = LP(a_gps) + g e_z,
 //   e_W = f^_W/|f^_W| x f_W/|f_W|,  w += kp R^_WB^T e_W,  db^/dt = -ki R^_WB^T e_W,
 // with a_gps the difference of successive GPS velocities. While the horizontal acceleration
@@ -22,6 +21,21 @@
 // and GPS horizontal accelerations (gain mahony_k_yaw); otherwise yaw is the gyro integral
 // from initial_yaw_deg and drifts with the z gyro bias (no magnetometer). The correction is
 // skipped when |f^| differs from g by more than accel_gate_frac g.
+//
+// In a GPS drop-out (no fix for 1.5 intervals, after fixes had come) the attitude is the gyro's
+// integral with the bias estimated so far, for up to gps_loss_gyro_only_s; only a longer
+// loss falls back to plain Mahony. Plain Mahony takes the specific force for "up", and a
+// multirotor's specific force is along its thrust axis whatever its tilt: while it
+// manoeuvres, plain Mahony pulls the estimate towards level at the rate kp (a 12 deg
+// acceleration tilt read as 5 deg after 1 s), which then tilts the velocity integration
+// (g sin 7 deg = 1.2 m/s^2 of error) and every vision fix rotated into W (0.8 m at 7 m).
+// The gyro alone drifts by its bias error: the IMU's bias random walk (1e-4 rad/s/sqrt(s)
+// by default) adds 0.02 deg in 3 s. The first fix after a gap does not make a correction
+// (its velocity difference spans the gap, not the low-pass both sides share): the
+// GPS-derived acceleration restarts from the IMU side's. A start without fixes (not two in
+// the first half second) is flown on the gyro the same way, from the attitude at rest. The first fix
+// after a gap also sets the velocity outright (the coasted one may be metres per second
+// off, beyond the residual gate); the position keeps its gated update.
 //
 // Position: for each W axis a 3-state Kalman filter [p, v, b] driven by the accelerometer in
 // W, a = R^_WB f_B - g e_z - b, updated by GPS position and velocity (latency-compensated to
@@ -53,6 +67,8 @@ struct NavigationParams {
   double mahony_k_yaw{0.0};               ///< yaw gain from horizontal acceleration (1/s); off:
                                           ///< differenced GPS velocity is too noisy for it
   double yaw_min_accel_mps2{0.3};         ///< least horizontal acceleration for it
+  double gps_loss_gyro_only_s{10.0};      ///< in a GPS drop-out, gyro-only attitude for up
+                                          ///< to this long, then plain Mahony (s)
   double accel_noise_mps2{0.2};           ///< accel noise density in W (m/s^2/sqrt(Hz))
   double accel_bias_rw_mps3{0.005};       ///< accel bias random walk (m/s^2/sqrt(s))
   double initial_accel_bias_std_mps2{0.1};
@@ -86,6 +102,7 @@ void visit_fields(V& v, NavigationParams& p) {
   v("accel_lowpass_s", p.accel_lowpass_s);
   v("mahony_k_yaw", p.mahony_k_yaw);
   v("yaw_min_accel_mps2", p.yaw_min_accel_mps2);
+  v("gps_loss_gyro_only_s", p.gps_loss_gyro_only_s);
   v("accel_noise_mps2", p.accel_noise_mps2);
   v("accel_bias_rw_mps3", p.accel_bias_rw_mps3);
   v("initial_accel_bias_std_mps2", p.initial_accel_bias_std_mps2);
@@ -121,6 +138,8 @@ class Navigation {
   const Eigen::Vector3d& gyro_bias_B() const { return b_g_; }
   const Eigen::Vector3d& accel_bias_W() const { return b_a_; }
   const NavigationParams& params() const { return p_; }
+  // How often the velocity was taken from the first fix after a drop-out.
+  int velocity_resets() const { return velocity_resets_; }
 
  private:
   NavigationParams p_;
@@ -138,7 +157,11 @@ class Navigation {
   // GPS-derived acceleration for the attitude correction.
   Eigen::Vector3d a_gps_W_{Eigen::Vector3d::Zero()};
   Eigen::Vector3d v_gps_prev_{Eigen::Vector3d::Zero()};
-  double t_gps_prev_{-1.0};
+  double t_gps_prev_{-1.0};        // sample time of the last fix
+  double t_gps_arrival_s_{-1.0};   // IMU time at which it arrived
+  double t_init_s_{0.0};           // time of the first IMU sample
+  int velocity_resets_{0};         // velocity taken from a fix after a gap
+  double gps_interval_s_{1.0};     // sample interval of the last two fixes
   bool have_a_gps_{false};
   Eigen::Vector3d f_W_lp_{0.0, 0.0, 9.81};  // LP of R^ f_B
   std::deque<std::pair<double, Eigen::Vector3d>> f_W_hist_;  // (t, f_W_lp) for alignment
