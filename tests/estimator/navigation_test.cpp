@@ -43,6 +43,14 @@ ImuSample imu_at(double t, const Eigen::Matrix3d& R_WB, const Eigen::Vector3d& g
   return s;
 }
 
+GpsSample fix_at(double t, const Eigen::Vector3d& p_W, const Eigen::Vector3d& v_W) {
+  GpsSample g;
+  g.t_s = t;
+  g.p_W_m = p_W;
+  g.v_W_mps = v_W;
+  return g;
+}
+
 TEST(Navigation, InitialisesRollPitchFromGravityAndYawFromParams) {
   NavigationParams p;
   p.initial_yaw_rad = M_PI / 2;
@@ -88,10 +96,8 @@ TEST(Navigation, GpsInitialisesPositionAndLatencyIsCompensated) {
   Navigation nav(NavigationParams{});
   nav.add_imu(imu_at(1.0, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero()));
   nav.add_imu(imu_at(1.1, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero()));
-  GpsSample g;
-  g.t_s = 1.0;  // 0.1 s old
-  g.p_W_m = Eigen::Vector3d(3.0, 4.0, 10.0);
-  g.v_W_mps = Eigen::Vector3d(1.0, 0.0, 0.0);
+  // Sampled at 1.0 s: 0.1 s old.
+  GpsSample g = fix_at(1.0, Eigen::Vector3d(3.0, 4.0, 10.0), Eigen::Vector3d(1.0, 0.0, 0.0));
   EXPECT_TRUE(nav.add_gps(g));
   const NavState s = nav.state();
   EXPECT_TRUE(s.valid);
@@ -120,11 +126,7 @@ TEST(Navigation, TracksConstantVelocityFromGps) {
     t = k * 0.004;
     nav.add_imu(imu_at(t, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero()));
     if (k % 50 == 0) {  // 5 Hz, exact
-      GpsSample g;
-      g.t_s = t;
-      g.p_W_m = Eigen::Vector3d(2.0 * t, 0.0, 10.0);
-      g.v_W_mps = Eigen::Vector3d(2.0, 0.0, 0.0);
-      nav.add_gps(g);
+      nav.add_gps(fix_at(t, Eigen::Vector3d(2.0 * t, 0.0, 10.0), Eigen::Vector3d(2.0, 0.0, 0.0)));
     }
   }
   const NavState s = nav.state();
@@ -133,7 +135,6 @@ TEST(Navigation, TracksConstantVelocityFromGps) {
   EXPECT_NEAR(s.p_W_m.x(), 2.0 * t, 0.01);
   EXPECT_NEAR(s.v_W_mps.x(), 2.0, 0.01);
 }
-
 
 // A multirotor's accelerometer reads its thrust along body z whatever its tilt: roll to
 // 20 deg at 0.5 s (at 40 deg/s) and hold it, the accelerometer reading (0, 0, g / cos) in B.
@@ -163,11 +164,7 @@ TEST(Navigation, StartInGpsDropOutIsFlownOnTheGyro) {
       const double t = k * 0.004;
       nav.add_imu(banked_at(t));
       if (k == 0) {
-        GpsSample g;
-        g.t_s = t;
-        g.p_W_m = Eigen::Vector3d(0, 0, 10);
-        g.v_W_mps = Eigen::Vector3d::Zero();
-        nav.add_gps(g);
+        nav.add_gps(fix_at(t, Eigen::Vector3d(0, 0, 10), Eigen::Vector3d::Zero()));
       }
     }
     return roll_deg(nav.state());
@@ -191,11 +188,7 @@ TEST(Navigation, FirstFixAfterDropOutSetsTheVelocity) {
     if (gap) s.accel_B_mps2.x() = 1.0;
     nav.add_imu(s);
     if (k % 50 == 0 && !gap) {
-      GpsSample g;
-      g.t_s = t;
-      g.p_W_m = Eigen::Vector3d(0, 0, 10);
-      g.v_W_mps = Eigen::Vector3d::Zero();
-      EXPECT_TRUE(nav.add_gps(g));
+      EXPECT_TRUE(nav.add_gps(fix_at(t, Eigen::Vector3d(0, 0, 10), Eigen::Vector3d::Zero())));
       if (t >= 8.0 && std::isnan(v_after_first_fix)) v_after_first_fix = nav.state().v_W_mps.x();
     }
   }

@@ -33,9 +33,9 @@
 // by default) adds 0.02 deg in 3 s. The first fix after a gap does not make a correction
 // (its velocity difference spans the gap, not the low-pass both sides share): the
 // GPS-derived acceleration restarts from the IMU side's. A start without fixes (not two in
-// the first half second) is flown on the gyro the same way, from the attitude at rest. The first fix
-// after a gap also sets the velocity outright (the coasted one may be metres per second
-// off, beyond the residual gate); the position keeps its gated update.
+// the first half second) is flown on the gyro the same way, from the attitude at rest. The
+// first fix after a gap also sets the velocity outright (the coasted one may be metres per
+// second off, beyond the residual gate); the position keeps its gated update.
 //
 // Position: for each W axis a 3-state Kalman filter [p, v, b] driven by the accelerometer in
 // W, a = R^_WB f_B - g e_z - b, updated by GPS position and velocity (latency-compensated to
