@@ -18,6 +18,27 @@ double yaw_of(const Eigen::Quaterniond& q_WB) {
 
 double horizontal(const Eigen::Vector3d& v) { return v.head<2>().norm(); }
 
+std::string ordinal(int n) {
+  switch (n) {
+    case 1: return "first";
+    case 2: return "second";
+    case 3: return "third";
+    default: return fmt::format("{}th", n);
+  }
+}
+
+// How far the lowest skid end lies below the level gear (<= 0, m), for a vehicle tilted
+// relative to the platform: n_B is the platform's normal in body axes. The skid ends
+// c = (+-Lx, +-Ly, -gear_h) lie n_B . c from the CoM along the normal, the lowest at
+// -Lx |n_x| - Ly |n_y| - gear_h n_z; a level vehicle's at -gear_h. At 3.7 deg of pitch a
+// 0.21 m skid end is 1.4 cm below the level gear: the skids meet the top while the
+// clearance of the CoM minus gear_h still reads 1.3 cm (envelope default-0011 sat on the top
+// like that for 0.8 s with 3.5 cm of error, never cut, and was dragged off by the braking cart).
+double skid_drop_m(const Eigen::Vector3d& n_B, const LandingParams& L) {
+  return L.gear_height_m * (1.0 - std::abs(n_B.z())) - L.skid_half_length_m * std::abs(n_B.x()) -
+         L.skid_half_spread_m * std::abs(n_B.y());
+}
+
 // Band around the go-around altitude that counts as reached (m): the position loop settles
 // within a few centimetres; 0.3 m avoids waiting for the last exponential tail.
 constexpr double kGoAroundReachedBand_m = 0.3;
@@ -453,6 +474,8 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
       final_t0_ = std::numeric_limits<double>::quiet_NaN();
       recovery_t0_ = t_s;
       wide_committed_ = false;
+      wide_departures_ = 0;
+      wide_left_t_ = std::numeric_limits<double>::quiet_NaN();
       break;
     case Mode::kTouchdown:
       cut_t_ = t_s;
@@ -545,6 +568,11 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
     diag_.platform_v_W_mps = tracker_.velocity();
     diag_.horizontal_error_m = horizontal(diag_.platform_W_m - nav.p_W_m);
     diag_.gear_clearance_m = nav.p_W_m.z() - diag_.platform_W_m.z() - L.gear_height_m;
+    // The platform's normal in body axes now: the last fix's normal (vision's relative
+    // attitude, put in W with the navigation attitude of that frame) brought back with the
+    // navigation attitude now, so the attitude's own error cancels but for its change since.
+    const Eigen::Vector3d n_B = nav.q_WB.conjugate() * tracker_.latest().n_W;
+    diag_.skid_drop_m = skid_drop_m(n_B.normalized(), L);
   }
   const double loss_age = t_s - tracker_.last_detection_t();
   check_reacquired(t_s);
@@ -830,13 +858,40 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
           return run_mode_machine(t_s, nav);
         }
       }
-      // Committed wide: leaving the wide gate (the safe one) ends the attempt.
+      // Committed wide: leaving the wide gate (the safe one) is a balked descent, not yet a
+      // go-around: the vehicle climbs back to the final hold height and descends again once
+      // within the gate (a stop-and-go cart that sets off under a committed vehicle is
+      // matched again within a second or two, where a go-around costs a new approach: envelope
+      // default-0107 left the gate by 6 mm and was still in its second approach at 60 s). The
+      // (max_wide_departures + 1)-th departure, or final_decision_window_s outside, ends the
+      // attempt.
       if (wide_committed_ && e_xy > wide_gate) {
-        end_attempt(t_s, Mode::kGoAround,
-                    fmt::format("committed within the wide gate, but the error {:.3f} m left it ({:.3f} m)",
-                                e_xy, wide_gate),
-                    nav);
-        return run_mode_machine(t_s, nav);
+        if (std::isnan(wide_left_t_)) {
+          ++wide_departures_;
+          if (wide_departures_ > L.max_wide_departures) {
+            end_attempt(t_s, Mode::kGoAround,
+                        fmt::format("committed within the wide gate, but the error {:.3f} m left it "
+                                    "({:.3f} m) for the {} time",
+                                    e_xy, wide_gate, ordinal(wide_departures_)),
+                        nav);
+            return run_mode_machine(t_s, nav);
+          }
+          wide_left_t_ = t_s;
+          log_event(t_s, "wide_gate_left",
+                    fmt::format("error {:.3f} m left the wide gate ({:.3f} m) at clearance {:.2f} m: "
+                                "back to the final hold height {:.2f} m until within it again",
+                                e_xy, wide_gate, h, L.final_hold_height_m));
+        } else if (t_s - wide_left_t_ > L.final_decision_window_s) {
+          end_attempt(t_s, Mode::kGoAround,
+                      fmt::format("committed within the wide gate; the error left it and was not back "
+                                  "within {:.3f} m in {:.1f} s (now {:.3f} m)",
+                                  wide_gate, L.final_decision_window_s, e_xy),
+                      nav);
+          return run_mode_machine(t_s, nav);
+        }
+        recovery_h_sp_ = std::max(recovery_h_sp_, L.final_hold_height_m);
+      } else if (wide_committed_) {
+        wide_left_t_ = std::numeric_limits<double>::quiet_NaN();
       }
       const double cut_gate = wide_committed_ ? wide_gate : L.touchdown_error_m;
       // Touchdown test (seed 000 section 3.3): small horizontal error, steady platform, plus
@@ -848,14 +903,22 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       // near the top) and the cut dropped the vehicle at 0.72 m/s. Should the fused estimate
       // read high, the descent simply goes on into contact at the final rate.
       const double h_fused = altitude_.valid ? altitude_.h_surface_m - L.gear_height_m : h;
-      if (fresh && h < L.cut_height_m && h_fused < L.cut_height_m &&
+      // Low enough for the cut: the level gear within cut_height_m of the top (the fall the
+      // cut was made for), or the lowest skid end (skid_drop_m) already at the top, within
+      // kSkidTouch_m, by both clearances: a tilted vehicle stands on a skid end before its
+      // level gear gets there.
+      const double h_low = h + diag_.skid_drop_m, h_fused_low = h_fused + diag_.skid_drop_m;
+      const bool level_gear_low = h < L.cut_height_m && h_fused < L.cut_height_m;
+      const bool skid_end_down =
+          h_low < LandingParams::kSkidTouch_m && h_fused_low < LandingParams::kSkidTouch_m;
+      if (fresh && (level_gear_low || skid_end_down) &&
           e_xy < cut_gate && v_rel.norm() < L.max_touchdown_rel_speed_mps &&
           tracker_.steady(L.steady_window_s, L.steady_tilt_deg, L.max_platform_tilt_deg,
                           &unsteady)) {
         switch_to(t_s, Mode::kTouchdown,
-                  fmt::format("cut: horizontal error {:.3f} m, clearance {:.3f} m (fused {:.3f} m), relative "
-                      "speed {:.2f} m/s, platform steady",
-                      e_xy, h, h_fused, v_rel.norm()),
+                  fmt::format("cut: horizontal error {:.3f} m, clearance {:.3f} m (fused {:.3f} m), lowest "
+                      "skid end {:.3f} m (fused {:.3f} m), relative speed {:.2f} m/s, platform steady",
+                      e_xy, h, h_fused, h_low, h_fused_low, v_rel.norm()),
                   nav);
         return hold(nav.p_W_m);
       }

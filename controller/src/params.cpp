@@ -188,6 +188,7 @@ void LandingParams::validate() const {
   require(search_give_up_s > 0, "search_give_up_s", "must be > 0");
   require(final_decision_window_s >= 0, "final_decision_window_s", "must be >= 0");
   require(max_landing_attempts >= 1, "max_landing_attempts", "must be >= 1");
+  require(max_wide_departures >= 0, "max_wide_departures", "must be >= 0");
 }
 
 void ControllerParams::validate() const {

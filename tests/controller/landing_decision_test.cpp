@@ -170,6 +170,121 @@ TEST(LandingDecision, FinalStageTimerCommitsWideWhenInsideTheWideGate) {
   EXPECT_GT(run.final_offset_m, L.final_descent_error_m);  // the nominal gate would not have
 }
 
+// Given the same gust, but once the vehicle has committed within the wide gate the gust
+// grows to 0.25 m for 1.5 s (outside the 0.17 m wide gate, inside the go-around error) and
+// then falls back: the error leaving the wide gate is a balked descent, not a go-around. The
+// vehicle climbs back to the final hold height, descends again once within the gate and
+// lands in the same attempt. With max_wide_departures = 0 the same departure is a go-around.
+struct DepartureRun {
+  KinematicRun run;
+  FinalStageGust gust;
+  double t_commit{-1.0};
+  double max_clearance_after_departure{-1.0};
+  static constexpr double kOut_m = 0.25, kOut_s = 1.5, kIn_m = 0.08;
+
+  explicit DepartureRun(int max_wide_departures) {
+    run.platform.v_W_mps = Eigen::Vector3d(0.5, 0.0, 0.0);
+    run.max_time_s = 90.0;
+    run.params.landing.max_wide_departures = max_wide_departures;
+    gust.radius_m = kIn_m;
+    gust.fade_mps = 1.0;  // out of the gate within ~0.1 s, before the committed descent ends
+    run.offset = [this](double t, const LandingController& c) {
+      if (t_commit < 0.0 && c.diagnostics().wide_committed) t_commit = t;
+      gust.radius_m = (t_commit >= 0.0 && t < t_commit + kOut_s) ? kOut_m : kIn_m;
+      return gust(t, c);
+    };
+    run.on_step = [this](double, const Eigen::Vector3d&, const LandingController& c) {
+      if (find_event(c.decision_log(), "wide_gate_left") != nullptr && c.mode() == Mode::kRecovery) {
+        max_clearance_after_departure =
+            std::max(max_clearance_after_departure, c.diagnostics().gear_clearance_m);
+      }
+    };
+  }
+};
+
+TEST(LandingDecision, LeavingTheWideGateAfterTheCommitClimbsBackAndLandsInTheSameAttempt) {
+  DepartureRun d(LandingParams{}.max_wide_departures);
+  d.run.run();
+  const KinematicRun& run = d.run;
+  SCOPED_TRACE(describe(run.transitions) + describe_log(run.decision_log));
+  const LandingParams& L = run.params.landing;
+  ASSERT_GE(d.t_commit, 0.0);
+  ASSERT_TRUE(run.landed);
+  EXPECT_EQ(run.decision_log.attempts, 1);
+  EXPECT_EQ(run.decision_log.decision, "committed_wide");
+  EXPECT_EQ(count_events(run.decision_log, "wide_gate_left"), 1);
+  EXPECT_EQ(count_events(run.decision_log, "go_around"), 0);
+  // It went back up to the final hold height (the kinematic vehicle tracks its setpoint to
+  // ~1 cm) before the second descent.
+  EXPECT_GT(d.max_clearance_after_departure, L.final_hold_height_m - 0.02);
+  // The cut came after the gust fell back, within the wide gate.
+  EXPECT_GT(find_event(run.decision_log, "cut")->t_s, d.t_commit + DepartureRun::kOut_s);
+  EXPECT_LT(run.final_offset_m, L.wide_gate_m());
+}
+
+TEST(LandingDecision, WithNoDeparturesAllowedLeavingTheWideGateIsAGoAround) {
+  DepartureRun d(0);
+  d.run.stop_when = [](const LandingController& c) { return c.mode() == Mode::kGoAround; };
+  d.run.run();
+  const KinematicRun& run = d.run;
+  SCOPED_TRACE(describe(run.transitions) + describe_log(run.decision_log));
+  ASSERT_GE(d.t_commit, 0.0);
+  EXPECT_FALSE(run.landed);
+  EXPECT_EQ(count_events(run.decision_log, "wide_gate_left"), 0);
+  const LandingEvent* go = find_event(run.decision_log, "go_around");
+  ASSERT_NE(go, nullptr);
+  EXPECT_NE(go->reason.find("left it"), std::string::npos) << go->reason;
+  EXPECT_LT(go->t_s - d.t_commit, DepartureRun::kOut_s);
+}
+
+// Given a vehicle that flies tilted 4 deg in pitch relative to the level platform (a steady
+// wind, or a cart's acceleration being matched), then the cut comes when its lowest skid
+// end, 0.21 m from the centre and 0.21 sin 4 deg = 1.5 cm below the level gear, is within
+// kSkidTouch_m of the top, with the level gear still above cut_height_m (envelope
+// default-0011 sat 0.8 s on the top on one skid end, its level gear reading 0.7-1.5 cm, and
+// was never cut). Level, the cut is at the level gear's cut_height_m, as before.
+double clearance_at_cut(double pitch_rad, double* skid_drop_m) {
+  KinematicRun run;
+  run.platform.v_W_mps = Eigen::Vector3d(0.5, 0.0, 0.0);
+  run.pitch_rad = pitch_rad;
+  double clearance = std::numeric_limits<double>::quiet_NaN();
+  run.on_step = [&](double t, const Eigen::Vector3d& p, const LandingController& c) {
+    if (std::isnan(clearance) && c.mode() == Mode::kTouchdown) {
+      clearance = p.z() - run.platform.p_W(t).z() - c.params().landing.gear_height_m;
+      *skid_drop_m = c.diagnostics().skid_drop_m;
+    }
+  };
+  run.run();
+  SCOPED_TRACE(describe(run.transitions) + describe_log(run.decision_log));
+  EXPECT_TRUE(run.landed);
+  return clearance;
+}
+
+TEST(LandingDecision, TiltedVehicleIsCutWhenItsLowestSkidEndReachesTheTop) {
+  const LandingParams L;
+  const double pitch = 4.0 * M_PI / 180.0;
+  const double drop_expected =
+      -(L.skid_half_length_m * std::sin(pitch) + L.gear_height_m * (1.0 - std::cos(pitch)));
+  double drop_level = 1.0, drop_tilted = 1.0;
+  const double level = clearance_at_cut(0.0, &drop_level);
+  const double tilted = clearance_at_cut(pitch, &drop_tilted);
+  // The drop from the fix's normal and the navigation attitude: the synthetic camera's
+  // rotation noise (0.3 deg sigma per axis, VisionModelParams) moves each 0.21 m arm by up to
+  // 0.21 sin(3 sigma) = 3.3 mm, both arms together twice that.
+  const double kNormalNoise_m = 2.0 * 0.21 * std::sin(3.0 * 0.3 * M_PI / 180.0);
+  EXPECT_NEAR(drop_level, 0.0, kNormalNoise_m);
+  EXPECT_NEAR(drop_tilted, drop_expected, kNormalNoise_m);
+  // One step of the descent (0.004 s at <= 0.2 m/s) and the vision clearance's noise (a few
+  // mm at 0.5 m range) on either side of the threshold.
+  constexpr double kCutTolerance_m = 0.006;
+  // (Level: at or below cut_height_m; the other cut conditions may hold it a few mm longer.)
+  EXPECT_LT(level, L.cut_height_m + kCutTolerance_m);
+  EXPECT_NEAR(tilted + drop_expected, LandingParams::kSkidTouch_m, kCutTolerance_m);
+  // The tilted vehicle is cut with its level gear still above cut_height_m (it would have
+  // sat on its skid end).
+  EXPECT_GT(tilted, L.cut_height_m);
+}
+
 // Given a descent gate below 1 m that the vehicle never meets (here 1 mm, standing for a
 // disturbance that keeps the error above the 10 cm gate: the kinematic vehicle's scripted
 // offsets are taken out by the servo's integral and carrot before the final stage), so the

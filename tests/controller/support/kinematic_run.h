@@ -26,6 +26,9 @@ struct KinematicRun {
   ControllerParams params;
   PlatformTruth platform;
   Eigen::Vector3d start{-2.0, 0.5, 8.0};
+  // A constant tilt of the vehicle (rad): body = Rz(yaw) Ry(pitch) Rx(roll). Vision and
+  // navigation see it; the point-mass motion does not (level flight otherwise).
+  double roll_rad{0.0}, pitch_rad{0.0};
   double max_time_s{60.0};
   bool solid{true};  // the platform top stops the fall
   std::function<bool(double, const Eigen::Isometry3d&)> visible;
@@ -73,7 +76,10 @@ struct KinematicRun {
     for (int i = 0; i * dt < max_time_s; ++i) {
       const double t = i * dt;
       Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
-      X_WB.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+      X_WB.linear() = (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
+                       Eigen::AngleAxisd(pitch_rad, Eigen::Vector3d::UnitY()) *
+                       Eigen::AngleAxisd(roll_rad, Eigen::Vector3d::UnitX()))
+                          .toRotationMatrix();
       X_WB.translation() = p;
       Eigen::Isometry3d X_WP = Eigen::Isometry3d::Identity();
       X_WP.translation() = platform.p_W(t) + platform_jump(t);

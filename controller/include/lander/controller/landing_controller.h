@@ -129,6 +129,8 @@ struct LandingDiagnostics {
   Eigen::Vector3d platform_v_W_mps{Eigen::Vector3d::Zero()};///< platform velocity (m/s)
   double horizontal_error_m{0.0};           ///< |platform - vehicle| horizontal (m)
   double gear_clearance_m{0.0};             ///< vehicle z - platform z - gear height (m)
+  double skid_drop_m{0.0};                  ///< lowest skid end below the level gear for
+                                            ///< the tilt relative to the platform (<= 0, m)
   int num_fixes{0};                         ///< fixes in the tracker history
   int keyframe_streak{0};
   bool approach_planned{false};
@@ -321,6 +323,8 @@ class LandingController {
   double recovery_t0_{0.0};          // recovery entry (s)
   double search_entry_t_{0.0};       // search entry (s): search_give_up_s counts from it
   bool wide_committed_{false};
+  int wide_departures_{0};           // times the error left the wide gate after the commit
+  double wide_left_t_{std::numeric_limits<double>::quiet_NaN()};  // outside since (s), NaN
   bool search_after_loss_{false};    // search entered with a fix history
   double search_t_seen_{0.0};        // last fix before that search's loss (s)
   Eigen::Vector2d search_centre_{Eigen::Vector2d::Zero()};  // pattern centre (m)

@@ -251,6 +251,10 @@ struct LandingParams {
   // touchdown (seed 000 section 3.3: < 5 cm and steady platform)
   double gear_height_m{0.25};             ///< CoM height above the surface when landed (m):
                                           ///< models/hexarotor.xml skids at -0.24 m, r 0.01 m
+  // A skid end this close to the top (m) counts as standing on it: the cut comes then even
+  // if the level gear (tilted vehicle) is still above cut_height_m. The clearances' noise
+  // and bias near the top are a few millimetres.
+  static constexpr double kSkidTouch_m = 0.005;
   double cut_height_m{0.010};             ///< cut when gear clearance is below this (m):
                                           ///< a fall of 1.5 cm adds ~0.3 m/s (rotors spin
                                           ///< down; 0.48 m/s at contact in the SoftTouchdown
@@ -384,6 +388,11 @@ struct LandingParams {
   double final_decision_window_s{5.0};    ///< ... linearly over this long, to wide_gate_m()
                                           ///< and max_touchdown_rel_speed_mps; not within it
                                           ///< by then: go-around (s); 0 = the wide gate at once
+  int max_wide_departures{2};             ///< committed wide, the error may leave the wide
+                                          ///< gate this often (climb back to
+                                          ///< final_hold_height_m, descend again within it);
+                                          ///< one more departure, or final_decision_window_s
+                                          ///< outside, is a go-around; 0 = the first is
   int max_landing_attempts{3};            ///< approaches (each entry into approach) before a
                                           ///< failed one ends in aborted instead of another
                                           ///< go-around or search
@@ -476,6 +485,7 @@ void visit_fields(V& v, LandingParams& p) {
   v("recovery_decision_after_s", p.recovery_decision_after_s);
   v("search_give_up_s", p.search_give_up_s);
   v("final_decision_window_s", p.final_decision_window_s);
+  v("max_wide_departures", p.max_wide_departures);
   v("max_landing_attempts", p.max_landing_attempts);
 }
 
