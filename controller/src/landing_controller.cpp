@@ -458,7 +458,11 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
         v0 = nav.v_W_mps;
         vd.head<2>() = tracker_.velocity().head<2>();
       }
-      approach_ = CubicTrajectory(nav.p_W_m, t_s, tracker_.predict(td) + eps, td, v0, vd);
+      // The goal's height: the platform's height now (from the vision relative vector, see
+      // the approach's setpoint below), not the fit's extrapolation of it.
+      Eigen::Vector3d goal = tracker_.predict(td) + eps;
+      goal.z() = diag_.platform_W_m.z() + eps.z();
+      approach_ = CubicTrajectory(nav.p_W_m, t_s, goal, td, v0, vd);
       diag_.approach_planned = true;
       diag_.approach_t0_s = t_s;
       diag_.approach_td_s = td;
@@ -742,6 +746,7 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
           tracker_.latest().t_s > diag_.approach_t0_s) {
         // The goal moves towards the new prediction at a bounded rate.
         Eigen::Vector3d step = tracker_.predict(approach_.td()) + eps - approach_.goal();
+        step.z() = 0.0;  // the height is re-anchored on the platform every step instead
         const double max_step = L.approach_goal_max_rate_mps * dt;
         if (step.norm() > max_step) step *= max_step / step.norm();
         approach_.set_goal(approach_.goal() + step);
@@ -768,7 +773,15 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
           return run_mode_machine(t_s, nav);
         }
       }
-      return approach_.setpoint(t_s, yaw_hold_);
+      // The height as the plan's height above its goal, on top of the platform's height now
+      // (nav.p + the vision relative vector): a step of the navigation height (a GPS with
+      // metres of vertical error) moves the platform's estimate with it and cancels, as in
+      // recovery's clearance servo. Planned in absolute W, a 5 m step of the navigation
+      // height during an approach (unseen campaign seed 73129, default-0005) put the goal
+      // 5 m below the platform and the vehicle met the top at 1.5 m/s.
+      Setpoint sp = approach_.setpoint(t_s, yaw_hold_);
+      sp.p_W_m.z() = diag_.platform_W_m.z() + eps.z() + (sp.p_W_m.z() - approach_.goal().z());
+      return sp;
     }
 
     case Mode::kRecovery: {

@@ -274,12 +274,15 @@ TEST(LandingDecision, TiltedVehicleIsCutWhenItsLowestSkidEndReachesTheTop) {
   const double kNormalNoise_m = 2.0 * 0.21 * std::sin(3.0 * 0.3 * M_PI / 180.0);
   EXPECT_NEAR(drop_level, 0.0, kNormalNoise_m);
   EXPECT_NEAR(drop_tilted, drop_expected, kNormalNoise_m);
-  // One step of the descent (0.004 s at <= 0.2 m/s) and the vision clearance's noise (a few
-  // mm at 0.5 m range) on either side of the threshold.
-  constexpr double kCutTolerance_m = 0.006;
-  // (Level: at or below cut_height_m; the other cut conditions may hold it a few mm longer.)
-  EXPECT_LT(level, L.cut_height_m + kCutTolerance_m);
-  EXPECT_NEAR(tilted + drop_expected, LandingParams::kSkidTouch_m, kCutTolerance_m);
+  // Not before the threshold, less the vision clearance's noise (a few mm at 0.5 m range);
+  // not later than one decision (an outer-loop period plus a step) of the final descent at
+  // max_descent_final_mps beyond it, plus that noise.
+  constexpr double kClearanceNoise_m = 0.003;
+  const double late_m = L.max_descent_final_mps * kDecisionLatency_s + kClearanceNoise_m;
+  EXPECT_LT(level, L.cut_height_m + kClearanceNoise_m);
+  EXPECT_GT(level, L.cut_height_m - late_m);
+  EXPECT_LT(tilted + drop_expected, LandingParams::kSkidTouch_m + kClearanceNoise_m);
+  EXPECT_GT(tilted + drop_expected, LandingParams::kSkidTouch_m - late_m);
   // The tilted vehicle is cut with its level gear still above cut_height_m (it would have
   // sat on its skid end).
   EXPECT_GT(tilted, L.cut_height_m);

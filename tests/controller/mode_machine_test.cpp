@@ -225,5 +225,40 @@ TEST(ModeMachine, CutWaitsForTheFusedAltitudeToAgree) {
   EXPECT_FALSE(high.landed);
 }
 
+// Given a navigation height that steps 3 m up one second into the approach (a GPS with
+// metres of vertical error: the unseen campaign's default-0005 had a 5 m step and met the top
+// at 1.5 m/s), then the approach still ends approach_epsilon_m above the platform: its height
+// is held above the platform's height now (navigation + vision relative vector), in which the
+// step cancels. Planned in absolute W it would have ended 3 m lower, through the top.
+TEST(ModeMachine, ApproachHeightFollowsThePlatformThroughANavigationHeightStep) {
+  KinematicRun run;
+  run.platform.v_W_mps = Eigen::Vector3d(0.5, 0.0, 0.0);
+  constexpr double kStep_m = 3.0;
+  double t_step = std::numeric_limits<double>::infinity();
+  run.nav_error = [&](double t) {
+    return Eigen::Vector3d(0.0, 0.0, t >= t_step ? kStep_m : 0.0);
+  };
+  double min_clearance_in_approach = 1e9, clearance_at_recovery = -1.0;
+  run.on_step = [&](double t, const Eigen::Vector3d& p, const LandingController& c) {
+    const double clearance = p.z() - run.platform.p_W(t).z() - c.params().landing.gear_height_m;
+    if (c.mode() == Mode::kApproach) {
+      if (!std::isfinite(t_step)) t_step = t + 1.0;
+      min_clearance_in_approach = std::min(min_clearance_in_approach, clearance);
+    }
+    if (c.mode() == Mode::kRecovery && clearance_at_recovery < 0.0) clearance_at_recovery = clearance;
+  };
+  run.run();
+  SCOPED_TRACE(describe(run.transitions));
+  const LandingParams& L = run.params.landing;
+  ASSERT_TRUE(std::isfinite(t_step));
+  EXPECT_TRUE(run.landed);
+  // The approach's end: approach_epsilon_m above the top (the gear clearance is the CoM's
+  // height above the top less gear_height_m); the kinematic vehicle tracks its setpoint to a
+  // few cm and vision's height noise is ~1 cm at 2 m.
+  constexpr double kTrack_m = 0.1;
+  EXPECT_NEAR(clearance_at_recovery, L.approach_epsilon_m - L.gear_height_m, kTrack_m);
+  EXPECT_GT(min_clearance_in_approach, L.approach_epsilon_m - L.gear_height_m - kTrack_m);
+}
+
 }  // namespace
 }  // namespace lander::ctl::test

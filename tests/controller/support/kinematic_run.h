@@ -47,6 +47,10 @@ struct KinematicRun {
   // (a disturbance the controller cannot remove: wind it does not reject); its rate adds to
   // the navigation velocity. Zero for none.
   std::function<Eigen::Vector3d(double, const LandingController&)> offset;
+  // An error of the navigation position (a GPS height that steps, say) as a function of
+  // time: the controller is given truth + this, and the vehicle flies so that its navigation
+  // position, not its true one, sits on the setpoint. Zero for none.
+  std::function<Eigen::Vector3d(double)> nav_error;
   // Called after every controller step.
   std::function<void(double, const Eigen::Vector3d&, const LandingController&)> on_step;
 
@@ -92,7 +96,8 @@ struct KinematicRun {
       NavState nav;
       nav.t_s = t;
       nav.valid = true;
-      nav.p_W_m = p;
+      const Eigen::Vector3d nav_err = nav_error ? nav_error(t) : Eigen::Vector3d::Zero();
+      nav.p_W_m = p + nav_err;
       nav.v_W_mps = v;
       nav.q_WB = Eigen::Quaterniond(X_WB.linear());
       ImuSample imu;
@@ -133,7 +138,7 @@ struct KinematicRun {
           const Eigen::Vector3d off_new = offset ? offset(t, ctl) : Eigen::Vector3d::Zero();
           const Eigen::Vector3d off_rate = (off_new - off) / dt;
           off = off_new;
-          v = sp.v_W_mps + off_rate + kTrackGain_per_s * (sp.p_W_m + off - p);
+          v = sp.v_W_mps + off_rate + kTrackGain_per_s * (sp.p_W_m + off - (p + nav_err));
           // ... at the cascade's speed limits, as the real vehicle.
           const double v_xy = v.head<2>().norm();
           if (v_xy > params.cascade.max_vel_xy_mps) v.head<2>() *= params.cascade.max_vel_xy_mps / v_xy;
