@@ -250,7 +250,7 @@ double clearance_at_cut(double pitch_rad, double* skid_drop_m) {
   double clearance = std::numeric_limits<double>::quiet_NaN();
   run.on_step = [&](double t, const Eigen::Vector3d& p, const LandingController& c) {
     if (std::isnan(clearance) && c.mode() == Mode::kTouchdown) {
-      clearance = p.z() - run.platform.p_W(t).z() - c.params().landing.gear_height_m;
+      clearance = run.gear_clearance_m(t, p);
       *skid_drop_m = c.diagnostics().skid_drop_m;
     }
   };
@@ -271,7 +271,8 @@ TEST(LandingDecision, TiltedVehicleIsCutWhenItsLowestSkidEndReachesTheTop) {
   // The drop from the fix's normal and the navigation attitude: the synthetic camera's
   // rotation noise (0.3 deg sigma per axis, VisionModelParams) moves each 0.21 m arm by up to
   // 0.21 sin(3 sigma) = 3.3 mm, both arms together twice that.
-  const double kNormalNoise_m = 2.0 * 0.21 * std::sin(3.0 * 0.3 * M_PI / 180.0);
+  const double kNormalNoise_m =
+      (L.skid_half_length_m + L.skid_half_spread_m) * std::sin(3.0 * 0.3 * M_PI / 180.0);
   EXPECT_NEAR(drop_level, 0.0, kNormalNoise_m);
   EXPECT_NEAR(drop_tilted, drop_expected, kNormalNoise_m);
   // Not before the threshold, less the vision clearance's noise (a few mm at 0.5 m range);

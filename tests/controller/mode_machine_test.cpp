@@ -240,7 +240,7 @@ TEST(ModeMachine, ApproachHeightFollowsThePlatformThroughANavigationHeightStep) 
   };
   double min_clearance_in_approach = 1e9, clearance_at_recovery = -1.0;
   run.on_step = [&](double t, const Eigen::Vector3d& p, const LandingController& c) {
-    const double clearance = p.z() - run.platform.p_W(t).z() - c.params().landing.gear_height_m;
+    const double clearance = run.gear_clearance_m(t, p);
     if (c.mode() == Mode::kApproach) {
       if (!std::isfinite(t_step)) t_step = t + 1.0;
       min_clearance_in_approach = std::min(min_clearance_in_approach, clearance);

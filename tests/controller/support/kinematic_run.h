@@ -64,6 +64,12 @@ struct KinematicRun {
   bool landed{false};
   double final_offset_m{0.0};
 
+  // True gear clearance of a vehicle at p above the platform top at t (m): the CoM's height
+  // above the top less gear_height_m, for a level vehicle.
+  double gear_clearance_m(double t, const Eigen::Vector3d& p) const {
+    return p.z() - platform.p_W(t).z() - params.landing.gear_height_m;
+  }
+
   void run() {
     LandingController ctl(params, CameraMount{});
     VisionModelParams vp;
@@ -153,7 +159,7 @@ struct KinematicRun {
         p += v * dt;
         imu_z = 0.0;
         const Eigen::Vector3d top = platform.p_W(t);
-        if (solid && p.z() - params.landing.gear_height_m <= top.z()) {
+        if (solid && gear_clearance_m(t, p) <= 0.0) {
           resting = true;
           final_offset_m = (p - top).head<2>().norm();
         }
