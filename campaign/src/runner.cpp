@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -91,30 +92,42 @@ json plan_json(const Campaign& c, const std::vector<PlannedRun>& plan) {
   return j;
 }
 
+// How long a killed run may take to end before the runner stops waiting for it.
+constexpr double kKillWait_s = 30.0;
+
 struct Active {
   const PlannedRun* run;
   std::string partial;
   std::unique_ptr<sim::ChildProcess> child;
   std::chrono::steady_clock::time_point start;
   bool timed_out{false};
-  // The run's CPU time (s) at the last sample, when it last grew, and when it was sampled.
+  // Samples of the run's CPU time (s) against wall time, covering the last hang window.
+  std::deque<std::pair<std::chrono::steady_clock::time_point, double>> cpu_samples;
   double cpu_s{0.0};
-  std::chrono::steady_clock::time_point cpu_grew, cpu_sampled;
   std::string hang_detail;
 };
 
 bool is_hung(Active& a, double limit_s, double wall_s) {
   const auto now = std::chrono::steady_clock::now();
+  const double window_s = hang_window_s(limit_s);
   const double sample_every_s = std::min(1.0, limit_s / 4.0);
-  if (std::chrono::duration<double>(now - a.cpu_sampled).count() >= sample_every_s) {
-    a.cpu_sampled = now;
-    if (const std::optional<double> cpu = process_cpu_s(a.child->pid()); cpu && *cpu > a.cpu_s) {
-      a.cpu_s = *cpu;
-      a.cpu_grew = now;
+  using sec = std::chrono::duration<double>;
+  if (a.cpu_samples.empty() || sec(now - a.cpu_samples.back().first).count() >= sample_every_s) {
+    if (const std::optional<double> cpu = process_cpu_s(a.child->pid())) {
+      a.cpu_s = std::max(a.cpu_s, *cpu);
+      a.cpu_samples.emplace_back(now, a.cpu_s);
+    }
+    // Keep one sample at or before the window's start, so the window is covered whole.
+    while (a.cpu_samples.size() > 2 && sec(now - a.cpu_samples[1].first).count() >= window_s) {
+      a.cpu_samples.pop_front();
     }
   }
-  const double idle_s = std::chrono::duration<double>(now - a.cpu_grew).count();
-  const std::optional<std::string> why = hang_reason(a.cpu_s, idle_s, wall_s, limit_s);
+  std::optional<double> share;
+  if (a.cpu_samples.size() >= 2) {
+    const double span_s = sec(a.cpu_samples.back().first - a.cpu_samples.front().first).count();
+    if (span_s >= window_s) share = (a.cpu_samples.back().second - a.cpu_samples.front().second) / span_s;
+  }
+  const std::optional<std::string> why = hang_reason(a.cpu_s, share, wall_s, limit_s);
   if (why) a.hang_detail = *why;
   return why.has_value();
 }
@@ -232,15 +245,22 @@ std::optional<double> process_cpu_s(pid_t pid) {
   return static_cast<double>(utime + stime) / static_cast<double>(ticks);
 }
 
-std::optional<std::string> hang_reason(double cpu_s, double cpu_idle_s, double wall_s,
-                                       double limit_s) {
+double hang_window_s(double limit_s) { return std::min(60.0, limit_s); }
+
+std::optional<std::string> hang_reason(double cpu_s, std::optional<double> recent_cpu_share,
+                                       double wall_s, double limit_s) {
   if (cpu_s > limit_s) {
     return fmt::format("{:.0f} s of CPU time, beyond the run's limit of {:.0f} s", cpu_s, limit_s);
   }
-  if (wall_s > limit_s && cpu_idle_s > std::min(60.0, limit_s)) {
-    return fmt::format("past the run's limit of {:.0f} s and no CPU used for {:.0f} s ({:.1f} s "
-                       "of CPU in all)",
-                       limit_s, cpu_idle_s, cpu_s);
+  if (wall_s > limit_s && recent_cpu_share && *recent_cpu_share < kIdleCpuShare) {
+    return fmt::format("past the run's limit of {:.0f} s and {:.2f} % of a core used in the last "
+                       "{:.0f} s ({:.1f} s of CPU in all)",
+                       limit_s, 100.0 * *recent_cpu_share, hang_window_s(limit_s), cpu_s);
+  }
+  if (wall_s > kHardWallFactor * limit_s) {
+    return fmt::format("{:.0f} s of wall time, {:.0f} x the run's limit of {:.0f} s ({:.1f} s of "
+                       "CPU in all)",
+                       wall_s, kHardWallFactor, limit_s, cpu_s);
   }
   return std::nullopt;
 }
@@ -330,7 +350,7 @@ RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan
     if (g_stop) {
       for (Active& a : active) {
         a.child->kill(SIGKILL);
-        a.child->wait();
+        if (!a.child->wait_for(kKillWait_s)) a.child->abandon();
         fs::remove_all(a.partial);
       }
       res.interrupted = true;
@@ -349,7 +369,6 @@ RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan
       so.own_process_group = true;
       so.env = env;
       a.start = std::chrono::steady_clock::now();
-      a.cpu_grew = a.cpu_sampled = a.start;
       a.child = std::make_unique<sim::ChildProcess>(sim::ChildProcess::spawn(
           {lander, "run", a.partial + "/scenario.input.yaml", "--out", a.partial, "--quiet"}, so));
       ++res.started;
@@ -365,7 +384,15 @@ RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan
       if (!st && is_hung(*it, limit, el)) {
         it->timed_out = true;
         it->child->kill(SIGKILL);
-        st = it->child->wait();
+        st = it->child->wait_for(kKillWait_s);
+        if (!st) {
+          // Not ended after SIGKILL (stuck in the kernel, e.g. dumping core to a stalled
+          // handler): record it and go on; the zombie is reaped by init when we exit.
+          it->hang_detail += fmt::format("; still not ended {:.0f} s after SIGKILL, left behind",
+                                         kKillWait_s);
+          it->child->abandon();
+          st = sim::ExitStatus{};
+        }
       }
       if (!st) {
         ++it;

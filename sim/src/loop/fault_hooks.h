@@ -3,6 +3,8 @@
 // hang) for the campaign runner's tests.
 #pragma once
 
+#include <sys/prctl.h>
+
 #include <chrono>
 #include <cstdlib>
 #include <limits>
@@ -16,8 +18,14 @@
 namespace lander::sim {
 
 // faults.abort_t_s: the process dies by SIGABRT; faults.hang_t_s: it sleeps forever.
+// The deliberate abort leaves no core dump: with `ulimit -c unlimited` each one wrote a 400 MB
+// core file into the working directory, and a host's core handler (a core_pattern pipe) could
+// hold the dying process for as long as it likes. Real crashes still dump as the host says.
 inline void run_process_fault_hooks(const FaultParams& f, double t_s) {
-  if (f.abort_t_s >= 0 && t_s >= f.abort_t_s) std::abort();
+  if (f.abort_t_s >= 0 && t_s >= f.abort_t_s) {
+    prctl(PR_SET_DUMPABLE, 0);
+    std::abort();
+  }
   if (f.hang_t_s >= 0 && t_s >= f.hang_t_s) {
     for (;;) std::this_thread::sleep_for(std::chrono::seconds(1));
   }

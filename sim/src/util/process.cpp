@@ -8,10 +8,12 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <sstream>
 #include <stdexcept>
+#include <thread>
 
 extern char** environ;
 
@@ -212,6 +214,20 @@ ExitStatus ChildProcess::wait() {
   } while (r < 0 && errno == EINTR);
   status_ = r == pid_ ? from_wait_status(st) : ExitStatus{};
   return *status_;
+}
+
+std::optional<ExitStatus> ChildProcess::wait_for(double timeout_s) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  for (;;) {
+    if (std::optional<ExitStatus> st = poll()) return st;
+    if (std::chrono::steady_clock::now() >= end) return std::nullopt;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+}
+
+void ChildProcess::abandon() {
+  close_stdin();
+  pid_ = -1;
 }
 
 void ChildProcess::kill(int sig) {

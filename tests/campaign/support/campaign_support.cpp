@@ -1,9 +1,11 @@
 #include "campaign/support/campaign_support.h"
 
+#include <signal.h>
 #include <stdlib.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <optional>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -20,10 +22,19 @@ Result lander(const std::vector<std::string>& args) {
   o.stdout_path = dir + "/out.txt";
   o.stderr_path = dir + "/err.txt";
   sim::ChildProcess p = sim::ChildProcess::spawn(argv, o);
-  const sim::ExitStatus st = p.wait();
+  // Bounded below ctest's own timeout, so that a command that never ends fails the test with
+  // its output instead of a bare ctest timeout.
+  std::optional<sim::ExitStatus> st = p.wait_for(kCommandLimit_s);
   Result r;
-  r.code = st.signaled ? -1 : st.code;
-  r.output = read_text(dir + "/out.txt") + read_text(dir + "/err.txt");
+  if (!st) {
+    p.kill(SIGKILL);
+    p.wait();
+    r.code = -2;
+    r.output = "[still running after " + std::to_string(kCommandLimit_s) + " s: killed]\n";
+  } else {
+    r.code = st->signaled ? -1 : st->code;
+  }
+  r.output += read_text(dir + "/out.txt") + read_text(dir + "/err.txt");
   return r;
 }
 

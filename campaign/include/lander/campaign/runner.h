@@ -54,12 +54,22 @@ void write_plan(const Campaign& c, const std::vector<PlannedRun>& plan, const st
 // nullopt when it cannot be read (the process is gone, or there is no /proc).
 std::optional<double> process_cpu_s(pid_t pid);
 
-// The runner's hang rule: a run is hung when it has used more CPU time than its limit (a busy
-// loop), or when it is past the limit in wall time and its CPU time has not grown for
-// min(60 s, limit) (asleep or deadlocked). A run that is only starved (a campaign at low
-// priority beside other work) still gets some CPU and is not hung. Returns why, or nullopt.
-std::optional<std::string> hang_reason(double cpu_s, double cpu_idle_s, double wall_s,
-                                       double limit_s);
+// The runner's hang rule. `limit_s` is the run's limit; `recent_cpu_share` is the CPU the run
+// used over the last hang_window_s(limit_s) of wall time, as a share of one core (nullopt
+// until that much has been watched). A run is hung when
+//  - it has used more CPU time than its limit (a busy loop), or
+//  - it is past the limit in wall time and its recent CPU share is below kIdleCpuShare
+//    (asleep or deadlocked: a process sleeping in a loop, with a renderer's idle threads,
+//    still gathers a clock tick now and then, so "no CPU at all" is not the test), or
+//  - it is past kHardWallFactor x the limit in wall time, whatever it does: a campaign never
+//    waits on one run for ever.
+// A run that is only starved (a campaign at nice 19 beside other work) still gets some CPU
+// and is not hung until the hard limit. Returns why, or nullopt.
+constexpr double kIdleCpuShare = 0.002;  // 0.2 % of a core: 12 clock ticks a minute
+constexpr double kHardWallFactor = 10.0;
+double hang_window_s(double limit_s);
+std::optional<std::string> hang_reason(double cpu_s, std::optional<double> recent_cpu_share,
+                                       double wall_s, double limit_s);
 
 // Runs what is missing of this shard. Throws ConfigError for bad options.
 RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan,

@@ -56,6 +56,11 @@ class ChildProcess {
   std::optional<ExitStatus> poll();
   // Blocks until the child ends.
   ExitStatus wait();
+  // Waits up to `timeout_s` for the child to end: its exit status, or nullopt if it has not.
+  std::optional<ExitStatus> wait_for(double timeout_s);
+  // Forgets the child without killing or waiting for it (one that would not end after
+  // SIGKILL): the destructor no longer blocks on it.
+  void abandon();
   // Sends a signal to the child (to its process group when it leads one).
   void kill(int sig);
 
