@@ -445,6 +445,9 @@ void LandingController::switch_to(double t_s, Mode to, const std::string& reason
                                   ? Eigen::Vector2d(tracker_.velocity().head<2>())
                                   : Eigen::Vector2d::Zero());
       hold_p_ = nav.p_W_m;  // observe height: where the target was acquired
+      observe_above_platform_m_ = tracker_.has_fix()
+                                      ? nav.p_W_m.z() - diag_.platform_W_m.z()
+                                      : std::numeric_limits<double>::quiet_NaN();
       break;
     case Mode::kApproach: {
       // seed 000 eq. 28-29: t_d from the distance at the nominal approach speed.
@@ -693,6 +696,12 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       // the gap at a bounded catch-up speed on top (no setpoint jumps). Between detections
       // position_now() carries the last fix on with that velocity.
       Setpoint sp = hold(hold_p_);
+      // The height is held above the platform's height now (navigation + vision relative
+      // vector), as the approach's: a step of the navigation height (a degraded GPS) cancels
+      // in it, where a hold in absolute W moved the vehicle by the whole step.
+      if (tracker_.has_fix() && std::isfinite(observe_above_platform_m_)) {
+        sp.p_W_m.z() = diag_.platform_W_m.z() + observe_above_platform_m_;
+      }
       if (tracker_.has_fix()) {
         const Eigen::Vector3d target = tracker_.position_now(t_s);
         // Velocity feed-forward only once the fit has enough fixes (far away, a few noisy

@@ -260,5 +260,44 @@ TEST(ModeMachine, ApproachHeightFollowsThePlatformThroughANavigationHeightStep) 
   EXPECT_GT(min_clearance_in_approach, L.approach_epsilon_m - L.gear_height_m - kTrack_m);
 }
 
+// Given a navigation height that steps 3 m up one second into observe (the same degraded
+// GPS), then the observing vehicle stays at the height above the platform where it acquired
+// the target: held in absolute W (as before) it would have descended by the whole step, 3 m
+// nearer the top, while believing itself where it was.
+TEST(ModeMachine, ObserveHeightFollowsThePlatformThroughANavigationHeightStep) {
+  KinematicRun run;
+  run.platform.v_W_mps = Eigen::Vector3d(0.5, 0.0, 0.0);
+  constexpr double kStep_m = 3.0;  // the navigation reads 3 m high: a W hold descends
+  double t_step = std::numeric_limits<double>::infinity();
+  run.nav_error = [&](double t) {
+    return Eigen::Vector3d(0.0, 0.0, t >= t_step ? kStep_m : 0.0);
+  };
+  double clearance_at_entry = -1.0, min_clearance = 1e9, max_clearance = -1e9;
+  int observe_steps_after_step = 0;
+  run.on_step = [&](double t, const Eigen::Vector3d& p, const LandingController& c) {
+    if (c.mode() != Mode::kObserve) return;
+    const double clearance = run.gear_clearance_m(t, p);
+    if (!std::isfinite(t_step)) {
+      t_step = t + 1.0;
+      clearance_at_entry = clearance;
+    }
+    if (t >= t_step + 0.1) {  // the setpoint step itself is instantaneous in the nav frame
+      ++observe_steps_after_step;
+      min_clearance = std::min(min_clearance, clearance);
+      max_clearance = std::max(max_clearance, clearance);
+    }
+  };
+  run.run();
+  SCOPED_TRACE(describe(run.transitions));
+  ASSERT_TRUE(std::isfinite(t_step));
+  ASSERT_GT(observe_steps_after_step, 250);  // observed for at least another second after it
+  EXPECT_TRUE(run.landed);
+  // The kinematic vehicle tracks its setpoint to a few cm; vision's height noise is ~1-3 cm
+  // at 8 m. A hold in absolute W would be off by the whole 3 m step.
+  constexpr double kTrack_m = 0.15;
+  EXPECT_GT(min_clearance, clearance_at_entry - kTrack_m);
+  EXPECT_LT(max_clearance, clearance_at_entry + kTrack_m);
+}
+
 }  // namespace
 }  // namespace lander::ctl::test

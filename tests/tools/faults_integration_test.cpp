@@ -9,6 +9,7 @@
 #include <sys/stat.h>
 
 #include <chrono>
+#include <cmath>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -92,9 +93,14 @@ TEST(Faults, FlightSoftwareRejectsNanAndAbsurdSamplesAndFliesOn) {
   const std::vector<double> z = trace_column(dir + "/out/trace.csv", "z_WB_m");
   const std::vector<double> roll = trace_column(dir + "/out/trace.csv", "roll_rad");
   ASSERT_GT(z.size(), 700u);  // 100 Hz for 8 s
+  // Never tipped: the roll stays within the attitude loop's own limit (models/flight.yaml
+  // max_tilt_deg: 30). The search that follows the default run's early loss of the target
+  // (t = 1.2-1.6 s, before any fault) flies at up to ~29 deg of it; this bound was written as
+  // 0.5 rad (28.6 deg) for "< 30 deg" until the run reached 28.9 deg there.
+  constexpr double kMaxTilt_rad = 30.0 * M_PI / 180.0;
   for (std::size_t i = 0; i < z.size(); ++i) {
     ASSERT_GT(z[i], 7.0) << "row " << i;    // started at 10 m
-    ASSERT_LT(std::abs(roll[i]), 0.5) << "row " << i;  // < 30 deg
+    ASSERT_LT(std::abs(roll[i]), kMaxTilt_rad) << "row " << i;
   }
   // The fused altitude, fed through every fault, still tracks the truth.
   const std::vector<double> fz = trace_column(dir + "/out/trace.csv", "fused_z_m");

@@ -337,6 +337,9 @@ class LandingController {
   long telemetry_received_{0}, telemetry_search_steps_{0};
   bool broadcast_following_{false};  // the follow point flies to the broadcast
   double observe_entry_t_{0.0};       // when observe was last entered (approach_entry_wait_s)
+  // Observe's height above the platform (m), fixed at entry (the height where the target was
+  // acquired): the hold rides on the platform's height seen by vision, not on absolute W.
+  double observe_above_platform_m_{std::numeric_limits<double>::quiet_NaN()};
   bool low_clearance_logged_{false};  // keep_min_height's event, once per mode
   double broadcast_arrived_t_{std::numeric_limits<double>::quiet_NaN()};  // this search came
                                      // within telemetry_arrive_radius_m of it (s)
