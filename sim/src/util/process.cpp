@@ -225,6 +225,13 @@ std::optional<ExitStatus> ChildProcess::wait_for(double timeout_s) {
   }
 }
 
+std::optional<ExitStatus> ChildProcess::wait_or_kill(double limit_s) {
+  if (std::optional<ExitStatus> st = wait_for(limit_s)) return st;
+  kill(SIGKILL);
+  wait();
+  return std::nullopt;
+}
+
 void ChildProcess::abandon() {
   close_stdin();
   pid_ = -1;

@@ -1,6 +1,5 @@
 #include "campaign/support/campaign_support.h"
 
-#include <signal.h>
 #include <stdlib.h>
 #include <unistd.h>
 
@@ -24,11 +23,9 @@ Result lander(const std::vector<std::string>& args) {
   sim::ChildProcess p = sim::ChildProcess::spawn(argv, o);
   // Bounded below ctest's own timeout, so that a command that never ends fails the test with
   // its output instead of a bare ctest timeout.
-  std::optional<sim::ExitStatus> st = p.wait_for(kCommandLimit_s);
+  const std::optional<sim::ExitStatus> st = p.wait_or_kill(kCommandLimit_s);
   Result r;
   if (!st) {
-    p.kill(SIGKILL);
-    p.wait();
     r.code = -2;
     r.output = "[still running after " + std::to_string(kCommandLimit_s) + " s: killed]\n";
   } else {

@@ -58,6 +58,9 @@ class ChildProcess {
   ExitStatus wait();
   // Waits up to `timeout_s` for the child to end: its exit status, or nullopt if it has not.
   std::optional<ExitStatus> wait_for(double timeout_s);
+  // Waits up to `limit_s`; a child still running then is killed (SIGKILL) and reaped, and
+  // nullopt is returned. (The tests' command helpers: a hang fails with its output.)
+  std::optional<ExitStatus> wait_or_kill(double limit_s);
   // Forgets the child without killing or waiting for it (one that would not end after
   // SIGKILL): the destructor no longer blocks on it.
   void abandon();
