@@ -349,8 +349,7 @@ RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan
   while ((next < todo.size() || !active.empty())) {
     if (g_stop) {
       for (Active& a : active) {
-        a.child->kill(SIGKILL);
-        if (!a.child->wait_for(kKillWait_s)) a.child->abandon();
+        a.child->kill_and_reap(kKillWait_s);
         fs::remove_all(a.partial);
       }
       res.interrupted = true;
@@ -383,14 +382,12 @@ RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan
       std::optional<sim::ExitStatus> st = it->child->poll();
       if (!st && is_hung(*it, limit, el)) {
         it->timed_out = true;
-        it->child->kill(SIGKILL);
-        st = it->child->wait_for(kKillWait_s);
+        st = it->child->kill_and_reap(kKillWait_s);
         if (!st) {
           // Not ended after SIGKILL (stuck in the kernel, e.g. dumping core to a stalled
-          // handler): record it and go on; the zombie is reaped by init when we exit.
+          // handler): recorded, and left to init to reap when we exit.
           it->hang_detail += fmt::format("; still not ended {:.0f} s after SIGKILL, left behind",
                                          kKillWait_s);
-          it->child->abandon();
           st = sim::ExitStatus{};
         }
       }

@@ -225,10 +225,16 @@ std::optional<ExitStatus> ChildProcess::wait_for(double timeout_s) {
   }
 }
 
+std::optional<ExitStatus> ChildProcess::kill_and_reap(double wait_s) {
+  kill(SIGKILL);
+  std::optional<ExitStatus> st = wait_for(wait_s);
+  if (!st) abandon();
+  return st;
+}
+
 std::optional<ExitStatus> ChildProcess::wait_or_kill(double limit_s) {
   if (std::optional<ExitStatus> st = wait_for(limit_s)) return st;
-  kill(SIGKILL);
-  wait();
+  kill_and_reap(30.0);
   return std::nullopt;
 }
 
