@@ -4,12 +4,11 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <optional>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
 
-#include "lander/sim/util/process.h"
+#include "common/run_binary.h"
 
 namespace lander::test {
 
@@ -17,22 +16,9 @@ Result lander(const std::vector<std::string>& args) {
   const std::string dir = temp_dir("lander_cli_out");
   std::vector<std::string> argv{LANDER_BINARY};
   argv.insert(argv.end(), args.begin(), args.end());
-  sim::SpawnOptions o;
-  o.stdout_path = dir + "/out.txt";
-  o.stderr_path = dir + "/err.txt";
-  sim::ChildProcess p = sim::ChildProcess::spawn(argv, o);
-  // Bounded below ctest's own timeout, so that a command that never ends fails the test with
-  // its output instead of a bare ctest timeout.
-  const std::optional<sim::ExitStatus> st = p.wait_or_kill(kCommandLimit_s);
-  Result r;
-  if (!st) {
-    r.code = -2;
-    r.output = "[still running after " + std::to_string(kCommandLimit_s) + " s: killed]\n";
-  } else {
-    r.code = st->signaled ? -1 : st->code;
-  }
-  r.output += read_text(dir + "/out.txt") + read_text(dir + "/err.txt");
-  return r;
+  const BinaryRun b = run_binary(argv, dir);
+  rmdir(dir.c_str());
+  return Result{b.code, b.out + b.err};
 }
 
 std::string temp_dir(const std::string& prefix) {

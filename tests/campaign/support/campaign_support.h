@@ -6,15 +6,14 @@
 #include <string>
 #include <vector>
 
+#include "common/run_binary.h"
+
 namespace lander::test {
 
 struct Result {
   int code{-1};        ///< exit code; -1 when ended by a signal, -2 when killed at kCommandLimit_s
   std::string output;  ///< stdout + stderr
 };
-
-// The longest a `lander` command of a test may take (s): ctest's timeout is 1500 s.
-constexpr double kCommandLimit_s = 1200.0;
 
 // Runs LANDER_BINARY with `args`, waits (up to kCommandLimit_s), returns the exit code and output.
 Result lander(const std::vector<std::string>& args);

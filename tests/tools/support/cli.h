@@ -9,7 +9,7 @@
 namespace lander::test {
 
 struct CliResult {
-  int code;            ///< exit code (-1 if the process did not exit normally, -2 if killed at 1200 s)
+  int code;            ///< exit code (-1 if the process did not exit normally, -2 if killed at kCommandLimit_s, common/run_binary.h)
   int signal;          ///< the signal that ended it, 0 if it exited
   std::string out;     ///< stdout
   std::string err;     ///< stderr
