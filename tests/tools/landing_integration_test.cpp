@@ -121,4 +121,62 @@ TEST(BroadcastIntegration, SearchFliesToTheBroadcastCartAndLands) {
   EXPECT_GT(last_row_distance(dir + "/off/trace.csv"), kOutOfViewM);
 }
 
+// A touchdown decided just before duration_s is judged after it (closed_loop.cpp's
+// kTouchdownJudgement_s): the static landing above, cut at t_cut, re-run with its duration
+// ending 0.3 s after the cut (the 1 s of rest needed for "landed" is not over at the end) and
+// 0.3 s before it (nothing decided: a timeout, nothing simulated past the end). Named apart
+// from LandingIntegration so that the sanitizer job does not pay for its three rendered runs.
+
+// After the cut the judge needs its 1 s of rest plus the fall (under 0.1 s): what the second
+// run may simulate past its duration is at most that with the judgement's 2 s bound.
+constexpr double kEndAfterCutS = 0.3;
+constexpr double kJudgementBoundS = 2.0;
+// One physics step (physics_dt_s = 1 ms): the first run and the re-runs are the same run
+// up to their end (same seed), so the re-run lands at the same instant.
+constexpr double kSameInstantS = 1e-3;
+
+TEST(TouchdownJudgement, ACutBeforeTheEndIsJudgedAfterIt) {
+  const std::string dir = lander::test::make_temp_dir("lander_judge");
+  const auto scenario = [](double duration_s) {
+    std::ostringstream os;
+    os << "name: short_static_landing\n"
+          "seed: 11\n"
+          "duration_s: "
+       << duration_s
+       << "\n"
+          "cart: {path: static, start_m: [0.0, 0.0]}\n"
+          "vehicle: {control: closed_loop, start_m: [-0.6, 0.4, 4.0]}\n";
+    return os.str();
+  };
+  const auto run = [&](const std::string& name, double duration_s) {
+    std::ofstream(dir + "/" + name + ".yaml") << scenario(duration_s);
+    const auto r = lander::test::run_lander({"run", dir + "/" + name + ".yaml", "--out", dir + "/" + name, "--quiet"});
+    const std::string text = slurp(dir + "/" + name + "/summary.json");
+    EXPECT_FALSE(text.empty()) << r.output;
+    return text.empty() ? nlohmann::json::object() : lander::test::parse_json(text);
+  };
+  const nlohmann::json full = run("full", 60);
+  ASSERT_TRUE(lander::test::bool_at(full, "landed")) << full.dump(1);
+  EXPECT_EQ(lander::test::number_at(full, "judged_past_duration_s"), 0.0);
+  double t_cut = std::nan("");
+  for (const auto& tr : lander::test::at_path(full, "mode_transitions")) {
+    if (lander::test::string_at(tr, "to") == "touchdown") t_cut = lander::test::number_at(tr, "t_s");
+  }
+  ASSERT_TRUE(std::isfinite(t_cut)) << full.dump(1);
+
+  const nlohmann::json late = run("late", t_cut + kEndAfterCutS);
+  EXPECT_EQ(lander::test::string_at(late, "outcome"), "landed") << late.dump(1);
+  const double past = lander::test::number_at(late, "judged_past_duration_s");
+  EXPECT_GT(past, 0.0);
+  EXPECT_LE(past, kJudgementBoundS);
+  EXPECT_NEAR(lander::test::number_at(late, "time_to_land_s"), lander::test::number_at(full, "time_to_land_s"),
+              kSameInstantS);
+  EXPECT_NEAR(lander::test::number_at(late, "touchdown_offset_m"),
+              lander::test::number_at(full, "touchdown_offset_m"), 1e-9);
+
+  const nlohmann::json early = run("early", t_cut - kEndAfterCutS);
+  EXPECT_EQ(lander::test::string_at(early, "outcome"), "timeout") << early.dump(1);
+  EXPECT_EQ(lander::test::number_at(early, "judged_past_duration_s"), 0.0);
+}
+
 }  // namespace

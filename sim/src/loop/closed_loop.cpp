@@ -224,6 +224,12 @@ class VisionStage {
   std::exception_ptr error_;         ///< what the worker's job threw (guarded by m_)
 };
 
+// How long past duration_s a run goes on when the flight software cut the motors to touch
+// down before it ended (s): the judge's 1 s of rest on the platform, plus the fall from the
+// cut (a few centimetres: under 0.1 s) and a bounce settling, with margin. Without it a
+// landing cut at 59.0 s of a 60 s run read as a timeout (envelope default-0040).
+constexpr double kTouchdownJudgement_s = 2.0;
+
 bool overlap_vision(const Scenario& s, const RunOptions& o) {
   if (std::find(kVisionSchedules.begin(), kVisionSchedules.end(), o.vision_schedule) == kVisionSchedules.end()) {
     throw std::invalid_argument("vision_schedule must be auto, serial or overlap (got '" + o.vision_schedule + "')");
@@ -307,8 +313,20 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
   w_cmd.fill(plant.hover_speed_radps());
   Outcome outcome{"timeout", fmt::format("no landing within duration_s = {:.1f} s", s.duration_s)};
   const int n_steps = static_cast<int>(std::floor(s.duration_s / dt + 0.5));
+  const int n_judge = static_cast<int>(std::floor(kTouchdownJudgement_s / dt + 0.5));
   const auto wall0 = Clock::now();
-  for (int k = 0; k < n_steps; ++k) {
+  for (int k = 0; k < n_steps + n_judge; ++k) {
+    // At duration_s the run ends, unless the flight software has already cut the motors to
+    // touch down: then the judge gets up to kTouchdownJudgement_s more to see it rest (or not).
+    if (k >= n_steps) {
+      if (!flight.controller().diagnostics().motors_cut) break;
+      if (k == n_steps) {
+        outcome.detail = fmt::format("motors cut before duration_s = {:.1f} s, but not resting on the platform "
+                                     "for 1 s within {:.1f} s after it",
+                                     s.duration_s, kTouchdownJudgement_s);
+      }
+      res.judged_past_duration_s = (k + 1) * dt - s.duration_s;
+    }
     const double t = k * dt, tn = (k + 1) * dt;
     run_process_fault_hooks(F, t);  // abort / hang test hooks
     // ---- camera and vision ----
@@ -387,6 +405,7 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
   res.renders = camera.renders();
   res.outliers_injected = recorder.outliers_injected();
   recorder.finish(outcome, flight, summary);
+  summary["judged_past_duration_s"] = res.judged_past_duration_s;
   if (profile) profile->commit();
   if (!o.record_vision.empty()) write_vision_log(o.record_vision, vision_log);
   return res;

@@ -27,6 +27,8 @@ struct LoopResult {
   int frames{0};
   long renders{0};            ///< camera renders, blur sub-renders included
   int outliers_injected{0};
+  /// Simulated past duration_s to judge a touchdown whose motors were cut before it (s).
+  double judged_past_duration_s{0.0};
 };
 
 // End of the exposure that starts at t_start_s.
