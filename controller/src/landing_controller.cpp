@@ -1017,7 +1017,12 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       // 0.6 m/s^2 is otherwise met only by the velocity loop, ~0.35 s behind the cart: 10-20
       // cm of error at every start and stop).
       if (L.platform_accel_ff_gain > 0.0 && fresh) {
-        sp.a_W_mps2.head<2>() = L.platform_accel_ff_gain * tracker_.acceleration().head<2>();
+        // Soft deadband: |a| reduced by platform_accel_ff_deadband_mps2, the direction kept.
+        Eigen::Vector2d a = tracker_.acceleration().head<2>();
+        const double a_norm = a.norm();
+        const double db = L.platform_accel_ff_deadband_mps2;
+        a = a_norm > db ? Eigen::Vector2d(a * ((a_norm - db) / a_norm)) : Eigen::Vector2d::Zero();
+        sp.a_W_mps2.head<2>() = L.platform_accel_ff_gain * a;
       }
       return sp;
     }

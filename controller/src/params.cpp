@@ -118,6 +118,7 @@ void LandingParams::validate() const {
   require(servo_max_correction_m >= 0, "servo_max_correction_m", "must be >= 0");
   require(platform_accel_ff_gain >= 0 && platform_accel_ff_gain <= 1, "platform_accel_ff_gain",
           "must be in [0, 1]");
+  require(platform_accel_ff_deadband_mps2 >= 0, "platform_accel_ff_deadband_mps2", "must be >= 0");
   require(gear_height_m >= 0, "gear_height_m", "must be >= 0");
   require(cut_height_m > 0, "cut_height_m", "must be > 0");
   require(touchdown_error_m > 0, "touchdown_error_m", "must be > 0");

@@ -244,10 +244,16 @@ struct LandingParams {
                                           ///< 0.6 wound up to -0.15 m while a stop-and-go cart
                                           ///< braked and then held the vehicle behind it
   double servo_max_correction_m{0.15};    ///< bound of that integral correction (m)
-  double platform_accel_ff_gain{0.0};     ///< share of the platform's estimated acceleration
+  double platform_accel_ff_gain{1.0};     ///< share of the platform's estimated acceleration
                                           ///< (PlatformTracker::acceleration()) the visual
-                                          ///< servo feeds forward, in [0, 1]; 0 = off (the
-                                          ///< default: not yet run on a dispersed campaign)
+                                          ///< servo feeds forward, in [0, 1]; 0 = off (on by
+                                          ///< default since 2026-11-28: README, "The
+                                          ///< acceleration feed-forward by default")
+  double platform_accel_ff_deadband_mps2{0.2};  ///< that acceleration's magnitude is reduced
+                                          ///< by this much before it is fed forward (soft
+                                          ///< deadband, m/s^2): the estimate's noise at a
+                                          ///< constant speed stays out, a cart's starts and
+                                          ///< stops (~0.6) pass
   // touchdown (seed 000 section 3.3: < 5 cm and steady platform)
   double gear_height_m{0.25};             ///< CoM height above the surface when landed (m):
                                           ///< models/hexarotor.xml skids at -0.24 m, r 0.01 m
@@ -440,6 +446,7 @@ void visit_fields(V& v, LandingParams& p) {
   v("servo_ki", p.servo_ki);
   v("servo_max_correction_m", p.servo_max_correction_m);
   v("platform_accel_ff_gain", p.platform_accel_ff_gain);
+  v("platform_accel_ff_deadband_mps2", p.platform_accel_ff_deadband_mps2);
   v("gear_height_m", p.gear_height_m);
   v("cut_height_m", p.cut_height_m);
   v("touchdown_error_m", p.touchdown_error_m);
