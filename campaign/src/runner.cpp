@@ -93,7 +93,7 @@ json plan_json(const Campaign& c, const std::vector<PlannedRun>& plan) {
 }
 
 // How long a killed run may take to end before the runner stops waiting for it.
-constexpr double kKillWait_s = 30.0;
+constexpr double kKillWait_s = sim::ChildProcess::kKillWait_s;
 
 struct Active {
   const PlannedRun* run;

@@ -4,12 +4,11 @@
 #pragma once
 
 #include <cstdio>
-#include <fstream>
 #include <optional>
-#include <sstream>
 #include <string>
 #include <vector>
 
+#include "lander/sim/util/output_files.h"
 #include "lander/sim/util/process.h"
 
 namespace lander::test {
@@ -33,14 +32,8 @@ inline BinaryRun run_binary(const std::vector<std::string>& argv, const std::str
   BinaryRun r;
   r.code = !st ? -2 : st->signaled ? -1 : st->code;
   r.signal = st && st->signaled ? st->signal : 0;
-  const auto read = [](const std::string& path) {
-    std::ifstream f(path, std::ios::binary);
-    std::stringstream ss;
-    ss << f.rdbuf();
-    return ss.str();
-  };
-  r.out = read(o.stdout_path);
-  r.err = read(o.stderr_path);
+  r.out = sim::read_file_text(o.stdout_path, /*missing_ok=*/true);
+  r.err = sim::read_file_text(o.stderr_path, /*missing_ok=*/true);
   if (!st) r.err = "[still running after " + std::to_string(kCommandLimit_s) + " s: killed]\n" + r.err;
   std::remove(o.stdout_path.c_str());
   std::remove(o.stderr_path.c_str());

@@ -234,7 +234,7 @@ std::optional<ExitStatus> ChildProcess::kill_and_reap(double wait_s) {
 
 std::optional<ExitStatus> ChildProcess::wait_or_kill(double limit_s) {
   if (std::optional<ExitStatus> st = wait_for(limit_s)) return st;
-  kill_and_reap(30.0);
+  kill_and_reap();
   return std::nullopt;
 }
 

@@ -29,12 +29,7 @@ std::string temp_dir(const std::string& prefix) {
   return buf.data();
 }
 
-std::string read_text(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
+std::string read_text(const std::string& path) { return sim::read_file_text(path, /*missing_ok=*/true); }
 
 Csv read_csv(const std::string& path) {
   std::ifstream f(path, std::ios::binary);

@@ -4,7 +4,6 @@
 
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
 #include <sstream>
 
 #include "common/run_binary.h"
@@ -41,11 +40,6 @@ std::string make_temp_dir(const std::string& prefix) {
   return dir ? dir : "";
 }
 
-std::string slurp(const std::string& path) {
-  std::ifstream f(path);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
+std::string slurp(const std::string& path) { return sim::read_file_text(path, /*missing_ok=*/true); }
 
 }  // namespace lander::test

@@ -58,11 +58,13 @@ class ChildProcess {
   ExitStatus wait();
   // Waits up to `timeout_s` for the child to end: its exit status, or nullopt if it has not.
   std::optional<ExitStatus> wait_for(double timeout_s);
+  // How long a killed child may take to end before the caller stops waiting for it (s).
+  static constexpr double kKillWait_s = 30.0;
   // Kills the child (SIGKILL) and waits up to `wait_s` for it to end: its exit status, or
   // nullopt (and the child abandoned) when it did not end (stuck in the kernel).
-  std::optional<ExitStatus> kill_and_reap(double wait_s);
-  // Waits up to `limit_s`; a child still running then is killed and reaped (kill_and_reap,
-  // 30 s) and nullopt is returned. (The tests' command helpers: a hang fails with its output.)
+  std::optional<ExitStatus> kill_and_reap(double wait_s = kKillWait_s);
+  // Waits up to `limit_s`; a child still running then is killed and reaped (kill_and_reap)
+  // and nullopt is returned. (The tests' command helpers: a hang fails with its output.)
   std::optional<ExitStatus> wait_or_kill(double limit_s);
   // Forgets the child without killing or waiting for it (one that would not end after
   // SIGKILL): the destructor no longer blocks on it.
