@@ -34,7 +34,11 @@ inline BinaryRun run_binary(const std::vector<std::string>& argv, const std::str
   r.signal = st && st->signaled ? st->signal : 0;
   r.out = sim::read_file_text(o.stdout_path, /*missing_ok=*/true);
   r.err = sim::read_file_text(o.stderr_path, /*missing_ok=*/true);
-  if (!st) r.err = "[still running after " + std::to_string(kCommandLimit_s) + " s: killed]\n" + r.err;
+  if (!st) {
+    char note[64];
+    std::snprintf(note, sizeof note, "[still running after %g s: killed]\n", kCommandLimit_s);
+    r.err = note + r.err;
+  }
   std::remove(o.stdout_path.c_str());
   std::remove(o.stderr_path.c_str());
   return r;

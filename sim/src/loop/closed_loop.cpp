@@ -240,123 +240,96 @@ bool overlap_vision(const Scenario& s, const RunOptions& o) {
   return !s.computer.measured_latency && s.computer.vision_latency_s + s.camera.exposure_s >= 1.0 / s.camera.rate_hz;
 }
 
+std::unique_ptr<CsvWriter> open_vision_profile(const RunOptions& o) {
+  if (o.vision_profile_csv.empty()) return nullptr;
+  return std::make_unique<CsvWriter>(
+      o.vision_profile_csv, std::vector<std::string>{"frame", "t_s", "height_m", "detected", "status", "tracking_roi",
+                                                     "code_searched", "rings", "predicted_blur_px", "deblurred", "vision_height_m",
+                                                     "detector_ms", "detector_cpu_ms", "path_ms", "zoomed", "by_layout"});
+}
+
 }  // namespace
 
-LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world, Renderer* renderer,
-                           Json& summary) {
-  const double dt = s.world.physics_dt_s;
-  const FaultParams& F = s.faults;
-  Plant plant(s, world);
-  SensorSuite sensors(s.sensors, s.seed);
-  schedule_sensor_faults(F, sensors);
-  CameraRig camera(s.camera, derive_seed(s.seed, "camera"), dt);
-  flight::FlightStack flight(s.flight);
-  // What the flight software was built from, beside the resolved scenario (the plant's truth).
-  write_file_atomic(o.out_dir + "/flight.resolved.yaml", yaml_to_string(params_to_yaml(flight.config())));
-  DelayQueue<flight::VisionResult> vision_q;
-  Recorder recorder(s, o, world, renderer);
-  VisionOutliers outliers(F);
-  // Recorded vision (change indication): delivered at the recorded times, nothing rendered.
-  const bool replay = !o.replay_vision.empty();
-  std::vector<VisionLogEntry> vision_log;
-  if (replay) {
-    for (const VisionLogEntry& e : read_vision_log(o.replay_vision)) vision_q.push(e.result, e.deliver_t_s);
-  } else if (renderer == nullptr) {
-    throw std::logic_error("run_closed_loop: no renderer");
+// The parts of the loop and the steps that tie them together (ClosedLoop::run).
+struct ClosedLoop::Impl {
+  Impl(const Scenario& scenario, const RunOptions& options, World& w, Renderer* r)
+      : s(scenario),
+        o(options),
+        world(w),
+        renderer(r),
+        dt(s.world.physics_dt_s),
+        plant(s, world),
+        sensors(s.sensors, s.seed),
+        camera(s.camera, derive_seed(s.seed, "camera"), dt),
+        flight(s.flight),
+        recorder(s, o, world, renderer),
+        outliers(s.faults),
+        replay(!o.replay_vision.empty()),
+        vision(flight, !replay && overlap_vision(s, o)),
+        profile(open_vision_profile(o)),
+        outcome{"timeout", fmt::format("no landing within duration_s = {:.1f} s", s.duration_s)},
+        n_steps(static_cast<int>(std::floor(s.duration_s / dt + 0.5))),
+        n_judge(static_cast<int>(std::floor(kTouchdownJudgement_s / dt + 0.5))) {
+    schedule_sensor_faults(s.faults, sensors);
+    // What the flight software was built from, beside the resolved scenario (the plant's truth).
+    write_file_atomic(o.out_dir + "/flight.resolved.yaml", yaml_to_string(params_to_yaml(flight.config())));
+    // Recorded vision (change indication): delivered at the recorded times, nothing rendered.
+    if (replay) {
+      for (const VisionLogEntry& e : read_vision_log(o.replay_vision)) vision_q.push(e.result, e.deliver_t_s);
+    }
+    w_cmd.fill(plant.hover_speed_radps());
   }
 
-  LoopResult res;
-  VisionStage vision(flight, !replay && overlap_vision(s, o));
-  std::unique_ptr<CsvWriter> profile;
-  if (!o.vision_profile_csv.empty()) {
-    profile = std::make_unique<CsvWriter>(
-        o.vision_profile_csv, std::vector<std::string>{"frame", "t_s", "height_m", "detected", "status", "tracking_roi",
-                                                       "code_searched", "rings", "predicted_blur_px", "deblurred", "vision_height_m",
-                                                       "detector_ms", "detector_cpu_ms", "path_ms", "zoomed", "by_layout"});
+  // Whether step k runs: every step up to duration_s, then, while the flight software has cut
+  // the motors to touch down, up to kTouchdownJudgement_s more for the judge to see it rest.
+  bool running(int k) {
+    if (k < n_steps) return true;
+    if (k >= n_steps + n_judge || !flight.controller().diagnostics().motors_cut) return false;
+    if (k == n_steps) {
+      outcome.detail = fmt::format("motors cut before duration_s = {:.1f} s, but not resting on the platform "
+                                   "for 1 s within {:.1f} s after it",
+                                   s.duration_s, kTouchdownJudgement_s);
+    }
+    res.judged_past_duration_s = (k + 1) * dt - s.duration_s;
+    return true;
   }
-  // A finished detection, in frame order on the main thread: outlier hook, the result to
-  // deliver, the recorder, the delivery queue.
-  auto finish_vision = [&]() {
-    VisionJob j = vision.take(&res.vision_wait_ms);
-    res.estimator_ms += j.proc_ms;
-    res.detector_ms += j.detect_ms;
-    res.detector_cpu_ms += j.detect_cpu_ms;
-    res.path_stage_ms += j.path_ms;
-    if (profile) {
-      profile->integer(j.frame.index).num(j.frame.exposure.mid(), 4).num(j.capture.z_mid_m - j.capture.platform_z_m, 3);
-      profile->integer(j.det.detected ? 1 : 0).text(to_string(j.det.status)).integer(j.det.used_roi ? 1 : 0);
-      profile->integer(j.det.code_searched ? 1 : 0).integer(static_cast<long long>(j.det.centres.size()));
-      profile->num(j.blur_px.norm(), 2).integer(j.det.deblurred ? 1 : 0);
-      // The detection's camera height above the target (compare with height_m, the truth).
-      profile->num(j.det.detected ? height_above_target_m(j.det.X_CP, flight.mount().X_BC())
-                                  : std::numeric_limits<double>::quiet_NaN(),
-                   4);
-      profile->num(j.detect_ms, 3).num(j.detect_cpu_ms, 3).num(j.path_ms, 3);
-      profile->integer(j.det.zoomed ? 1 : 0).integer(j.det.by_layout ? 1 : 0);
-      profile->end_row();
-    }
-    const double t_mid = j.frame.exposure.mid();
-    if (outliers.apply(t_mid, j.det)) recorder.count_outlier_injected();
-    flight::VisionResult vr = flight.vision_result(j.det, t_mid);
-    vr.path = std::move(j.path);
-    recorder.on_frame(j.frame, j.capture, j.det, vr);
-    if (fault_active(t_mid, F.nan_vision_t_s, F.nan_vision_duration_s)) {
-      corrupt_observation(vr.obs);  // test hook: a "detection" with a NaN pose
-      vr.h_plane_m = height_above_target_m(vr.obs.X_CP, flight.mount().X_BC());
-    }
-    const double latency = s.computer.measured_latency ? j.proc_ms * 1e-3 : s.computer.vision_latency_s;
-    const double deliver_t = j.frame.exposure.t_end_s + latency;
-    vision_q.push(vr, deliver_t);
-    if (!o.record_vision.empty()) vision_log.push_back({j.frame.index, deliver_t, vr});
-  };
-  RotorArray w_cmd;
-  w_cmd.fill(plant.hover_speed_radps());
-  Outcome outcome{"timeout", fmt::format("no landing within duration_s = {:.1f} s", s.duration_s)};
-  const int n_steps = static_cast<int>(std::floor(s.duration_s / dt + 0.5));
-  const int n_judge = static_cast<int>(std::floor(kTouchdownJudgement_s / dt + 0.5));
-  const auto wall0 = Clock::now();
-  for (int k = 0; k < n_steps + n_judge; ++k) {
-    // At duration_s the run ends, unless the flight software has already cut the motors to
-    // touch down: then the judge gets up to kTouchdownJudgement_s more to see it rest (or not).
-    if (k >= n_steps) {
-      if (!flight.controller().diagnostics().motors_cut) break;
-      if (k == n_steps) {
-        outcome.detail = fmt::format("motors cut before duration_s = {:.1f} s, but not resting on the platform "
-                                     "for 1 s within {:.1f} s after it",
-                                     s.duration_s, kTouchdownJudgement_s);
-      }
-      res.judged_past_duration_s = (k + 1) * dt - s.duration_s;
-    }
-    const double t = k * dt, tn = (k + 1) * dt;
-    run_process_fault_hooks(F, t);  // abort / hang test hooks
-    // ---- camera and vision ----
-    std::optional<CameraFrame> frame;
-    if (!replay) frame = camera.advance(t, world, *renderer, &res.render_ms);
-    if (frame) {
-      if (!o.save_frames_dir.empty()) save_frame_png(o.save_frames_dir, *frame);
-      if (vision.pending()) finish_vision();  // the detector takes frames in order
-      VisionJob job;
-      job.capture = recorder.capture_frame(*frame, flight);
-      // The path stage (seed 003) runs only while the flight software can use it.
-      job.run_path = flight.wants_path();
-      // Predicted here, on the loop's thread, from the state the flight software has when the
-      // frame arrives: the same in the serial and the overlapped schedule.
-      job.blur_px = flight.predicted_blur_px(frame->exposure);
-      job.frame = std::move(*frame);
-      const double t_end = job.frame.exposure.t_end_s;
-      vision.submit(std::move(job), t_end + s.computer.vision_latency_s);
-      if (!vision.overlapped()) finish_vision();
-    }
-    // ---- plant ----
+
+  // The camera renders what falls at t; a frame whose exposure ended goes to the vision stage
+  // (after the previous frame's detection: the detector takes frames in order).
+  void camera_step(double t) {
+    if (replay) return;
+    std::optional<CameraFrame> frame = camera.advance(t, world, *renderer, &res.render_ms);
+    if (!frame) return;
+    if (!o.save_frames_dir.empty()) save_frame_png(o.save_frames_dir, *frame);
+    if (vision.pending()) finish_vision();
+    VisionJob job;
+    job.capture = recorder.capture_frame(*frame, flight);
+    // The path stage (seed 003) runs only while the flight software can use it.
+    job.run_path = flight.wants_path();
+    // Predicted here, on the loop's thread, from the state the flight software has when the
+    // frame arrives: the same in the serial and the overlapped schedule.
+    job.blur_px = flight.predicted_blur_px(frame->exposure);
+    job.frame = std::move(*frame);
+    const double t_end = job.frame.exposure.t_end_s;
+    vision.submit(std::move(job), t_end + s.computer.vision_latency_s);
+    if (!vision.overlapped()) finish_vision();
+  }
+
+  // The plant steps with the rotor command (rotors, ground effect, wind, cart, physics).
+  bool plant_step(int k) {
     const auto tp0 = Clock::now();
     std::string diverged;
     if (!plant.step(k, w_cmd, &diverged)) {
       outcome = {"diverged", diverged};
-      break;
+      return false;
     }
     res.physics_ms += ms_since(tp0);
-    const VehicleTruth& truth = plant.truth();
-    // ---- sensors -> flight stack ----
+    return true;
+  }
+
+  // The sensors sample the new truth and transmit; what is delivered at tn (sensor samples,
+  // vision results) reaches the flight stack, whose inner loop sets the rotor command.
+  void flight_step(double tn) {
     if (vision.pending() && vision.pending_deliver_t() <= tn + 1e-12) finish_vision();  // due now
     const auto tc0 = Clock::now();
     // The platform's truth only when its broadcast samples now (not on every physics step).
@@ -365,9 +338,9 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
       const Eigen::Vector3d p_WP = world.X_WP().translation();
       platform = PlatformTruth{tn, p_WP, world.cart_point_velocity_W(p_WP)};
     }
-    SensorSuite::Sampled smp = sensors.sample(truth, platform ? &*platform : nullptr);
-    recorder.on_samples(smp, truth);
-    corrupt_on_the_wire(F, tn, smp);
+    SensorSuite::Sampled smp = sensors.sample(plant.truth(), platform ? &*platform : nullptr);
+    recorder.on_samples(smp, plant.truth());
+    corrupt_on_the_wire(s.faults, tn, smp);
     sensors.transmit(smp);
     const SensorSuite::Delivered in = sensors.deliver(tn);
     for (const BaroSample& b : in.baro) flight.on_baro(b);
@@ -385,30 +358,118 @@ LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
       }
     }
     res.control_ms += ms_since(tc0);
-    // ---- recorder ----
+  }
+
+  // The recorder logs step k and judges it; true when the run has ended.
+  bool judged_over(int k, double tn) {
     res.sim_s = tn;
-    if (std::optional<Outcome> end = recorder.on_step(k, truth, flight, plant.rotor_speeds_radps())) {
+    if (std::optional<Outcome> end = recorder.on_step(k, plant.truth(), flight, plant.rotor_speeds_radps())) {
       outcome = *end;
-      break;
+      return true;
     }
     if (o.progress && k % 5000 == 0) {
-      std::cerr << fmt::format("\rt = {:.1f} s  mode {}            ", tn,
-                               ctl::to_string(flight.controller().mode()))
+      std::cerr << fmt::format("\rt = {:.1f} s  mode {}            ", tn, ctl::to_string(flight.controller().mode()))
                 << std::flush;
     }
+    return false;
   }
-  if (vision.pending()) finish_vision();  // the last frame counts as in the serial schedule
-  if (o.progress) std::cerr << "\n";
-  res.overlapped = vision.overlapped();
-  res.wall_s = std::chrono::duration<double>(Clock::now() - wall0).count();
-  res.frames = camera.frames();
-  res.renders = camera.renders();
-  res.outliers_injected = recorder.outliers_injected();
-  recorder.finish(outcome, flight, summary);
-  summary["judged_past_duration_s"] = res.judged_past_duration_s;
-  if (profile) profile->commit();
-  if (!o.record_vision.empty()) write_vision_log(o.record_vision, vision_log);
-  return res;
+
+  // A finished detection, in frame order on the main thread: outlier hook, the result to
+  // deliver, the recorder, the delivery queue.
+  void finish_vision() {
+    VisionJob j = vision.take(&res.vision_wait_ms);
+    res.estimator_ms += j.proc_ms;
+    res.detector_ms += j.detect_ms;
+    res.detector_cpu_ms += j.detect_cpu_ms;
+    res.path_stage_ms += j.path_ms;
+    if (profile) write_profile_row(j);
+    const double t_mid = j.frame.exposure.mid();
+    if (outliers.apply(t_mid, j.det)) recorder.count_outlier_injected();
+    flight::VisionResult vr = flight.vision_result(j.det, t_mid);
+    vr.path = std::move(j.path);
+    recorder.on_frame(j.frame, j.capture, j.det, vr);
+    if (fault_active(t_mid, s.faults.nan_vision_t_s, s.faults.nan_vision_duration_s)) {
+      corrupt_observation(vr.obs);  // test hook: a "detection" with a NaN pose
+      vr.h_plane_m = height_above_target_m(vr.obs.X_CP, flight.mount().X_BC());
+    }
+    const double latency = s.computer.measured_latency ? j.proc_ms * 1e-3 : s.computer.vision_latency_s;
+    const double deliver_t = j.frame.exposure.t_end_s + latency;
+    vision_q.push(vr, deliver_t);
+    if (!o.record_vision.empty()) vision_log.push_back({j.frame.index, deliver_t, vr});
+  }
+
+  void write_profile_row(const VisionJob& j) {
+    profile->integer(j.frame.index).num(j.frame.exposure.mid(), 4).num(j.capture.z_mid_m - j.capture.platform_z_m, 3);
+    profile->integer(j.det.detected ? 1 : 0).text(to_string(j.det.status)).integer(j.det.used_roi ? 1 : 0);
+    profile->integer(j.det.code_searched ? 1 : 0).integer(static_cast<long long>(j.det.centres.size()));
+    profile->num(j.blur_px.norm(), 2).integer(j.det.deblurred ? 1 : 0);
+    // The detection's camera height above the target (compare with height_m, the truth).
+    profile->num(j.det.detected ? height_above_target_m(j.det.X_CP, flight.mount().X_BC())
+                                : std::numeric_limits<double>::quiet_NaN(),
+                 4);
+    profile->num(j.detect_ms, 3).num(j.detect_cpu_ms, 3).num(j.path_ms, 3);
+    profile->integer(j.det.zoomed ? 1 : 0).integer(j.det.by_layout ? 1 : 0);
+    profile->end_row();
+  }
+
+  // After the last step: the last frame's detection (as in the serial schedule), the summary,
+  // the profile and the vision log.
+  LoopResult finish(Clock::time_point wall0, Json& summary) {
+    if (vision.pending()) finish_vision();
+    if (o.progress) std::cerr << "\n";
+    res.overlapped = vision.overlapped();
+    res.wall_s = std::chrono::duration<double>(Clock::now() - wall0).count();
+    res.frames = camera.frames();
+    res.renders = camera.renders();
+    res.outliers_injected = recorder.outliers_injected();
+    recorder.finish(outcome, flight, summary);
+    summary["judged_past_duration_s"] = res.judged_past_duration_s;
+    if (profile) profile->commit();
+    if (!o.record_vision.empty()) write_vision_log(o.record_vision, vision_log);
+    return res;
+  }
+
+  const Scenario& s;
+  const RunOptions& o;
+  World& world;
+  Renderer* renderer;
+  const double dt;
+  Plant plant;                // MuJoCo world, rotors, ground effect, wind, cart
+  SensorSuite sensors;        // IMU, barometer, GPS, ultrasonic, magnetometer, telemetry
+  CameraRig camera;           // exposures, renders (motion blur), image noise
+  flight::FlightStack flight; // estimator + controller, from the flight configuration only
+  Recorder recorder;          // trace, metrics, judge, summary, video
+  VisionOutliers outliers;
+  const bool replay;
+  DelayQueue<flight::VisionResult> vision_q;  // results waiting for their delivery time
+  std::vector<VisionLogEntry> vision_log;
+  LoopResult res;
+  VisionStage vision;         // the detector, on a worker thread when the schedule allows
+  std::unique_ptr<CsvWriter> profile;
+  RotorArray w_cmd;
+  Outcome outcome;
+  const int n_steps, n_judge;
+};
+
+ClosedLoop::ClosedLoop(const Scenario& s, const RunOptions& o, World& world, Renderer* renderer) {
+  if (o.replay_vision.empty() && renderer == nullptr) throw std::logic_error("ClosedLoop: no renderer");
+  impl_ = std::make_unique<Impl>(s, o, world, renderer);
+}
+
+ClosedLoop::~ClosedLoop() = default;
+
+LoopResult ClosedLoop::run(Json& summary) {
+  Impl& L = *impl_;
+  const auto wall0 = Clock::now();
+  for (int k = 0; L.running(k); ++k) {
+    const double t = k * L.dt, tn = (k + 1) * L.dt;
+    run_process_fault_hooks(L.s.faults, t);  // abort / hang test hooks
+    L.camera_step(t);                        // render at t; a finished frame to the vision stage
+    if (!L.plant_step(k)) break;             // rotor command in, physics to tn
+    L.flight_step(tn);                       // sensors and vision results -> flight stack
+    if (L.judged_over(k, tn)) break;         // recorder: trace, metrics, outcome
+  }
+  return L.finish(wall0, summary);
 }
 
 }  // namespace lander::sim

@@ -207,7 +207,7 @@ Json run_scenario(const Scenario& s, const RunOptions& o) {
     if (s.vehicle.control == "kinematic") {
       run_kinematic(s, o, world, *renderer, summary);
     } else {
-      const LoopResult r = run_closed_loop(s, o, world, renderer.get(), summary);
+      const LoopResult r = ClosedLoop(s, o, world, renderer.get()).run(summary);
       Json perf;
       perf["sim_seconds"] = r.sim_s;
       perf["wall_seconds"] = r.wall_s;

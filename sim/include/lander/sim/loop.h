@@ -1,6 +1,8 @@
 // The closed-loop run: physics, sensors, camera and flight software on one fixed-step
-// scheduler (see closed_loop.cpp). run_scenario() calls it for vehicle.control: closed_loop.
+// scheduler (see closed_loop.cpp). run_scenario() runs it for vehicle.control: closed_loop.
 #pragma once
+
+#include <memory>
 
 #include <nlohmann/json.hpp>
 
@@ -36,10 +38,22 @@ inline double camera_exposure_end(const CameraParams& p, double t_start_s) {
   return t_start_s + p.exposure_s;
 }
 
-// Runs the closed loop; fills `summary` (landed, outcome, touchdown figures, transitions,
-// vision counts, altitude-fusion errors) and writes trace.csv and the videos into o.out_dir.
-// `renderer` may be null only when o.replay_vision is set and o.video is not.
-LoopResult run_closed_loop(const Scenario& s, const RunOptions& o, World& world,
-                           Renderer* renderer, nlohmann::ordered_json& summary);
+// The closed loop: the plant, the sensor rig, the flight stack (built from the scenario's
+// `flight:` section only) and the recorder on one fixed-step scheduler. run() fills `summary`
+// (landed, outcome, touchdown figures, transitions, vision counts, altitude-fusion errors) and
+// writes trace.csv and the videos into o.out_dir. `renderer` may be null only when
+// o.replay_vision is set and o.video is not. One run per object.
+class ClosedLoop {
+ public:
+  ClosedLoop(const Scenario& s, const RunOptions& o, World& world, Renderer* renderer);
+  ~ClosedLoop();
+  ClosedLoop(const ClosedLoop&) = delete;
+  ClosedLoop& operator=(const ClosedLoop&) = delete;
+  LoopResult run(nlohmann::ordered_json& summary);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace lander::sim
