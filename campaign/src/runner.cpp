@@ -92,9 +92,6 @@ json plan_json(const Campaign& c, const std::vector<PlannedRun>& plan) {
   return j;
 }
 
-// How long a killed run may take to end before the runner stops waiting for it.
-constexpr double kKillWait_s = sim::ChildProcess::kKillWait_s;
-
 struct Active {
   const PlannedRun* run;
   std::string partial;
@@ -349,7 +346,7 @@ RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan
   while ((next < todo.size() || !active.empty())) {
     if (g_stop) {
       for (Active& a : active) {
-        a.child->kill_and_reap(kKillWait_s);
+        a.child->kill_and_reap();
         fs::remove_all(a.partial);
       }
       res.interrupted = true;
@@ -382,12 +379,12 @@ RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan
       std::optional<sim::ExitStatus> st = it->child->poll();
       if (!st && is_hung(*it, limit, el)) {
         it->timed_out = true;
-        st = it->child->kill_and_reap(kKillWait_s);
+        st = it->child->kill_and_reap();
         if (!st) {
           // Not ended after SIGKILL (stuck in the kernel, e.g. dumping core to a stalled
           // handler): recorded, and left to init to reap when we exit.
           it->hang_detail += fmt::format("; still not ended {:.0f} s after SIGKILL, left behind",
-                                         kKillWait_s);
+                                         sim::ChildProcess::kKillWait_s);
           st = sim::ExitStatus{};
         }
       }

@@ -338,8 +338,9 @@ struct ClosedLoop::Impl {
       const Eigen::Vector3d p_WP = world.X_WP().translation();
       platform = PlatformTruth{tn, p_WP, world.cart_point_velocity_W(p_WP)};
     }
-    SensorSuite::Sampled smp = sensors.sample(plant.truth(), platform ? &*platform : nullptr);
-    recorder.on_samples(smp, plant.truth());
+    const VehicleTruth& truth = plant.truth();
+    SensorSuite::Sampled smp = sensors.sample(truth, platform ? &*platform : nullptr);
+    recorder.on_samples(smp, truth);
     corrupt_on_the_wire(s.faults, tn, smp);
     sensors.transmit(smp);
     const SensorSuite::Delivered in = sensors.deliver(tn);
