@@ -428,6 +428,13 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
           v["ours_rot_err_deg"] = d.detected ? rot_err_deg(d.X_CP, X_CP) : kNaN;
           v["apriltag"] = dt.detected;
           v["aruco"] = da.detected;
+          // The true image centre of each ring set, by id (what a miss's ellipses are checked
+          // against).
+          Json tc = Json::object();
+          for (std::size_t i = 0; i < g.rings.size(); ++i) {
+            tc[std::to_string(g.rings[i].id)] = Json::array({truth[i].x(), truth[i].y()});
+          }
+          v["true_centres_px"] = std::move(tc);
           if (!d.detected && !p.save_misses_dir.empty()) {
             write_png_file(p.save_misses_dir + "/view_" + std::to_string(views.size()) + ".png",
                            rings);

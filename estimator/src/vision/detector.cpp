@@ -95,6 +95,15 @@ bool supported_image(const cv::Mat& img) {
 // few tenths; 3x keeps a clear margin between them.
 constexpr double kThreeSetMinResidualRatio = 3.0;
 
+// A photometric ratio (photometric_ratio) is used only if its fit shows a dark set on light
+// with at least this contrast (grey levels; the rendered platform gives 150-230, an inner
+// circle mistaken for an outer one fits with a negative contrast) and an RMS residual below
+// this fraction of it (the sets of the grazing views fit with 0.07-0.15: the renderer's
+// anisotropic texture filter is not the model's Gaussian).
+constexpr double kPhotoMinContrast = 40.0;
+constexpr double kPhotoMaxRmsFraction = 0.25;
+
+
 bool poses_agree(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const VisionParams& p);
 
 // 8-bit grey frame in which at least `region` is converted: 8-bit grey input is used as is;
@@ -575,6 +584,17 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
       c.ratio = pairs[best_pair[i]].ratio;
     } else {
       c.centre = cands[i].undist.centre;
+    }
+    // Small sets: the ratio from the set's model fitted to its pixels (photometric_ratio),
+    // unbiased where eq. (9) on 1-3 px inner circles reads 0.05-0.3 off or has no inner
+    // circle at all. A fit must show the set as dark on light with a residual well below the
+    // contrast (an inner circle taken as an outer one fits as light on dark).
+    if (cands[i].image.b <= p.layout_photometric_max_minor_px) {
+      const auto pr = photometric_ratio(grey, cands[i].image);
+      if (pr && pr->contrast >= kPhotoMinContrast && pr->rms <= kPhotoMaxRmsFraction * pr->contrast) {
+        c.ratio = pr->ratio;
+        c.photometric = true;
+      }
     }
     lc.push_back(c);
     lc_ellipse.push_back(static_cast<int>(i));

@@ -4,10 +4,13 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <initializer_list>
+#include <limits>
 #include <set>
 #include <sstream>
 
 #include <Eigen/Dense>
+#include <opencv2/imgproc.hpp>
 
 namespace lander {
 namespace {
@@ -15,6 +18,13 @@ namespace {
 using Cplx = std::complex<double>;
 
 Cplx to_c(const Eigen::Vector2d& v) { return {v.x(), v.y()}; }
+
+// The common offset removed from photometric ratios stays within [-low, high]: their mean
+// error is +0.01 on exactly drawn grazing views (unit test VisionLayout.PhotometricRatios*),
+// -0.02 to -0.03 on the bench's rendered ones at 2.5-10 m (-0.08 at 15 m), while the hexagon's
+// 180 deg turn shifts every ratio by 0.08-0.1.
+constexpr double kPhotometricMaxBiasLow = 0.05;
+constexpr double kPhotometricMaxBiasHigh = 0.03;
 
 // One hypothesis: the candidate taken as the central set's circle of radius r0_m, the
 // similarity (scale k, rotation) from the model plane to the rectified plane, and the sets
@@ -149,11 +159,15 @@ std::optional<LayoutMatch> identify_by_layout(const std::vector<LayoutCandidate>
             }
             h.matched = 0;
             std::vector<double> e;  // measured - model ratio of each set with an inner circle
+            bool all_photometric = true;
             for (int i = 0; i < nr; ++i) {
               const int j = h.cand_of_ring[i];
               if (j < 0) continue;
               ++h.matched;
-              if (cands[j].ratio >= 0) e.push_back(cands[j].ratio - target.rings[i].radius_ratio());
+              if (cands[j].ratio >= 0) {
+                e.push_back(cands[j].ratio - target.rings[i].radius_ratio());
+                all_photometric &= cands[j].photometric;
+              }
             }
             if (h.matched < 3) continue;
             // Small rings read their ratios off by a common amount (blur and the threshold
@@ -168,7 +182,13 @@ std::optional<LayoutMatch> identify_by_layout(const std::vector<LayoutCandidate>
               std::sort(sorted.begin(), sorted.end());
               const std::size_t mid = sorted.size() / 2;
               double bias = sorted.size() % 2 ? sorted[mid] : 0.5 * (sorted[mid - 1] + sorted[mid]);
-              bias = std::clamp(bias, -p.layout_max_ratio_bias, 0.5 * p.layout_max_ratio_bias);
+              // Photometric ratios carry no such bias (they model the blur): their common
+              // offset stays within the model's own spread, so that the 180 deg turn, a
+              // common shift of 0.08-0.1, cannot be absorbed.
+              const double lo = all_photometric ? kPhotometricMaxBiasLow : p.layout_max_ratio_bias;
+              const double hi =
+                  all_photometric ? kPhotometricMaxBiasHigh : 0.5 * p.layout_max_ratio_bias;
+              bias = std::clamp(bias, -lo, hi);
               double sum = 0.0;
               for (double x : e) {
                 sum += std::abs(x - bias);
@@ -231,6 +251,112 @@ std::optional<LayoutMatch> identify_by_layout(const std::vector<LayoutCandidate>
   m.runner_up_err = runner;
   m.ratio_bias = best->bias;
   return m;
+}
+
+std::optional<PhotometricRatio> photometric_ratio(const cv::Mat& grey, const EllipseParams& e) {
+  if (grey.type() != CV_8UC1 || !(e.a > 0 && e.b > 0)) return std::nullopt;
+  // The patch: the ellipse grown by kMarginPx (a blurred edge's spread), on a rectangle grown
+  // by the blur kernel's reach so that the model's blur sees the white around it.
+  constexpr double kMarginPx = 1.5;
+  constexpr int kPad = 4;
+  constexpr int kSub = 4;  // supersampling per pixel side (the model's pixel coverage)
+  const double ai = e.a + kMarginPx, bi = e.b + kMarginPx;
+  const double c = std::cos(e.angle_rad), s = std::sin(e.angle_rad);
+  const double hx = std::sqrt(ai * ai * c * c + bi * bi * s * s);
+  const double hy = std::sqrt(ai * ai * s * s + bi * bi * c * c);
+  const int x0 = static_cast<int>(std::floor(e.centre.x() - hx)) - kPad;
+  const int x1 = static_cast<int>(std::ceil(e.centre.x() + hx)) + kPad;
+  const int y0 = static_cast<int>(std::floor(e.centre.y() - hy)) - kPad;
+  const int y1 = static_cast<int>(std::ceil(e.centre.y() + hy)) + kPad;
+  if (!(x0 >= 0 && y0 >= 0 && x1 < grey.cols && y1 < grey.rows)) return std::nullopt;
+  const int w = x1 - x0 + 1, h = y1 - y0 + 1;
+  // Normalised elliptic radius of every sub-sample (1 on the outer circle), and the patch.
+  std::vector<float> q(static_cast<std::size_t>(w) * h * kSub * kSub);
+  std::vector<int> patch;  // indices (y * w + x) of the pixels fitted
+  std::vector<double> img;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      for (int sy = 0; sy < kSub; ++sy) {
+        for (int sx = 0; sx < kSub; ++sx) {
+          const double px = x0 + x + (sx + 0.5) / kSub - 0.5 - e.centre.x();
+          const double py = y0 + y + (sy + 0.5) / kSub - 0.5 - e.centre.y();
+          const double u = (c * px + s * py) / e.a, v = (-s * px + c * py) / e.b;
+          q[((static_cast<std::size_t>(y) * w + x) * kSub + sy) * kSub + sx] =
+              static_cast<float>(std::sqrt(u * u + v * v));
+        }
+      }
+      const double dx = x0 + x - e.centre.x(), dy = y0 + y - e.centre.y();
+      const double u = c * dx + s * dy, v = -s * dx + c * dy;
+      if ((u * u) / (ai * ai) + (v * v) / (bi * bi) <= 1.0) {
+        patch.push_back(y * w + x);
+        img.push_back(grey.ptr<std::uint8_t>(y0 + y)[x0 + x]);
+      }
+    }
+  }
+  const int n = static_cast<int>(patch.size());
+  constexpr int kMinPatchPixels = 24;
+  if (n < kMinPatchPixels) return std::nullopt;
+  double si = 0.0, sii = 0.0;
+  for (double v : img) {
+    si += v;
+    sii += v * v;
+  }
+  cv::Mat cover(h, w, CV_32F), blurred;
+  PhotometricRatio best;
+  best.rms = std::numeric_limits<double>::infinity();
+  // The model for ratio rho_pc / 100 and outer size `scale`, blurred by each of `sigmas`,
+  // fitted by linear least squares; keeps the best.
+  auto fit = [&](int rho_pc, double scale, std::initializer_list<double> sigmas) {
+    const float outer = static_cast<float>(scale);
+    const float inner = static_cast<float>(0.01 * rho_pc) * outer;
+    for (int y = 0; y < h; ++y) {
+      float* row = cover.ptr<float>(y);
+      for (int x = 0; x < w; ++x) {
+        const float* qq = &q[(static_cast<std::size_t>(y) * w + x) * kSub * kSub];
+        int dark = 0;
+        for (int t = 0; t < kSub * kSub; ++t) dark += (qq[t] >= inner && qq[t] <= outer);
+        row[x] = static_cast<float>(dark) / (kSub * kSub);
+      }
+    }
+    for (double sigma : sigmas) {
+      cv::GaussianBlur(cover, blurred, cv::Size(0, 0), sigma, 0, cv::BORDER_REPLICATE);
+      double sm = 0.0, smm = 0.0, smi = 0.0;
+      for (int t = 0; t < n; ++t) {
+        const double m = blurred.ptr<float>(patch[t] / w)[patch[t] % w];
+        sm += m;
+        smm += m * m;
+        smi += m * img[t];
+      }
+      const double det = n * smm - sm * sm;
+      if (!(det > 1e-9)) continue;
+      const double slope = (n * smi - sm * si) / det;  // I = alpha + slope * m: -contrast
+      const double alpha = (si - slope * sm) / n;
+      const double sse = sii - 2 * alpha * si - 2 * slope * smi + alpha * alpha * n +
+                         2 * alpha * slope * sm + slope * slope * smm;
+      const double rms = std::sqrt(std::max(0.0, sse) / n);
+      if (rms < best.rms) {
+        best.rms = rms;
+        best.ratio = 0.01 * rho_pc;
+        best.contrast = -slope;
+        best.white = alpha;
+        best.sigma_px = sigma;
+        best.scale = scale;
+      }
+    }
+  };
+  // Coarse to fine: rho by 0.05 over [0.10, 0.80], then by 0.01 within 0.05 of the best.
+  constexpr int kRhoMinPc = 10, kRhoMaxPc = 80, kCoarsePc = 5;
+  for (double scale : {0.88, 0.94, 1.0, 1.06}) {
+    for (int k = kRhoMinPc; k <= kRhoMaxPc; k += kCoarsePc) fit(k, scale, {0.5, 0.8, 1.1});
+  }
+  const int coarse = static_cast<int>(std::lround(best.ratio * 100));
+  const double sigma_best = best.sigma_px, scale_best = best.scale;
+  for (int k = std::max(kRhoMinPc, coarse - kCoarsePc + 1);
+       k <= std::min(kRhoMaxPc, coarse + kCoarsePc - 1); ++k) {
+    if (k != coarse) fit(k, scale_best, {sigma_best});
+  }
+  if (!std::isfinite(best.rms)) return std::nullopt;
+  return best;
 }
 
 }  // namespace lander

@@ -45,6 +45,8 @@ void VisionParams::validate() const {
           "must be >= 1 (the ratios decide the rotation)");
   require(layout_position_tol > 0 && layout_position_tol < 0.5, "layout_position_tol",
           "must be in (0, 0.5) (neighbouring sets are one hexagon radius apart)");
+  require(layout_photometric_max_minor_px >= 0 && layout_photometric_max_minor_px <= 64,
+          "layout_photometric_max_minor_px", "must be in [0, 64]");
   require(layout_size_tol > 0 && layout_size_tol <= 1, "layout_size_tol", "must be in (0, 1]");
   require(zoom_max_axis_px > 0, "zoom_max_axis_px", "must be > 0");
   require(zoom_max_region_px >= 16 && zoom_max_region_px <= 2048, "zoom_max_region_px",

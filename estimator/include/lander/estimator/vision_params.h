@@ -81,9 +81,10 @@ struct VisionParams {
   // ---- identification by the layout (issue 12: far and grazing views; vision_layout.h) ----
   bool layout_identification{false};  ///< when the ratio-by-ratio identification gives no
                                      ///< pose, identify the sets by their places on the
-                                     ///< hexagon, the ratios judged together; the pose
-                                     ///< passes the same gates. Off until checked in the
-                                     ///< closed loop (README, estimator benchmark)
+                                     ///< hexagon, the ratios (photometric for small sets)
+                                     ///< judged together; the pose passes the same gates.
+                                     ///< Off until checked in the closed loop (README,
+                                     ///< estimator benchmark)
   double layout_ratio_tol{0.04};     ///< mean |ratio - model - common bias| of the placed
                                      ///< sets; none may exceed twice this
   double layout_max_ratio_bias{0.12};  ///< the common bias removed lies within [-this,
@@ -96,6 +97,12 @@ struct VisionParams {
   double layout_position_tol{0.2};   ///< a set's rectified centre within this fraction of
                                      ///< its distance from the centre (weak perspective
                                      ///< leaves 1-7 %; blur inflates the central circle)
+  double layout_photometric_max_minor_px{8.0};  ///< a candidate whose minor semi-axis is at
+                                     ///< most this gives the layout its photometric ratio
+                                     ///< (photometric_ratio: the set's model fitted to its
+                                     ///< pixels) instead of eq. (9)'s, whose inner circle is
+                                     ///< then 1-3 px across the minor axis or not found at
+                                     ///< all; 0 = eq. (9) only
   double layout_size_tol{0.4};       ///< rectified outer circle within a factor 1 + this of
                                      ///< the model's, and its axis ratio below 1 + this
   // ---- zoomed pass (issue 12: far and grazing views) ----
@@ -226,6 +233,7 @@ void visit_fields(V& v, VisionParams& p) {
   v("layout_ratio_margin", p.layout_ratio_margin);
   v("layout_min_ratio_sets", p.layout_min_ratio_sets);
   v("layout_position_tol", p.layout_position_tol);
+  v("layout_photometric_max_minor_px", p.layout_photometric_max_minor_px);
   v("layout_size_tol", p.layout_size_tol);
   v("zoom_pass", p.zoom_pass);
   v("zoom_max_axis_px", p.zoom_max_axis_px);
