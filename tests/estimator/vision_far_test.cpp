@@ -102,7 +102,7 @@ TEST(VisionFar, ZoomedAndLayoutPosesAreRightOrAbsent) {
       [](const RingDetection& d) { return d.zoomed || d.by_layout; });
   EXPECT_GE(n.detected, n.detected_off);
   // The passes are exercised here: on these frames they give poses the default passes do not
-  // (4 of 12 while developing; 2 without them).
+  // (4 of 12 while developing, 8 with the photometric ratios; 2 without them).
   EXPECT_GT(n.extra, 0);
   std::cout << "far views: " << n.detected << " of 12 detected with the passes (" << n.extra
             << " by them), " << n.detected_off << " without\n";
@@ -137,6 +137,46 @@ TEST(VisionFar, TargetFreeFramesStayEmptyWithTheUnfilteredPass) {
   p.tracking = false;
   ASSERT_TRUE(p.unfiltered_pass);
   expect_target_free(p);
+}
+
+// Grazing views as shipped (the layout identification with photometric ratios on by
+// default): 5 and 10 m, 65-75 deg from the normal, exactly drawn with noise. Every pose is
+// right, and the layout gives poses that the ratio path alone does not.
+TEST(VisionFar, GrazingViewsByTheLayoutAreRightOrAbsent) {
+  const TargetGeometry& g = test::default_target();
+  const CameraModel cam;
+  VisionParams p;
+  p.tracking = false;
+  ASSERT_TRUE(p.layout_identification) << "on by default";
+  VisionParams off = p;
+  off.layout_identification = false;
+  int detected = 0, detected_off = 0, by_layout = 0, k = 0;
+  for (double alt : {5.0, 10.0}) {
+    for (double tilt : {65.0, 70.0, 75.0}) {
+      for (double yaw : {20.0, 80.0, 140.0}) {
+        const Eigen::Isometry3d X = test::look_at_pose(alt, tilt, yaw, 50.0 * k++);
+        test::SynthOptions opt;
+        opt.noise_sigma = 2.0;
+        opt.seed = static_cast<std::uint64_t>(100 + k);
+        const cv::Mat img = test::render_view(g, cam, X, opt);
+        const RingDetection d = detect_ring_target(img, cam, g, p);
+        const RingDetection d0 = detect_ring_target(img, cam, g, off);
+        detected_off += d0.detected;
+        if (!d.detected) continue;
+        ++detected;
+        by_layout += d.by_layout;
+        const double range = X.translation().norm();
+        EXPECT_LT(test::position_error_m(d.X_CP, X), kMaxPosFrac * range)
+            << alt << " m, " << tilt << " deg: " << d.reason;
+        EXPECT_LT(test::rotation_error_rad(d.X_CP, X) * 180.0 / M_PI, kMaxRotDeg)
+            << alt << " m, " << tilt << " deg: " << d.reason;
+      }
+    }
+  }
+  EXPECT_GE(detected, detected_off);
+  EXPECT_GT(by_layout, 0) << "the layout should name sets the ratio path cannot here";
+  std::cout << "grazing views: " << detected << " of 18 detected (" << by_layout
+            << " by the layout), " << detected_off << " without it\n";
 }
 
 }  // namespace

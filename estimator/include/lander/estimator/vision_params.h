@@ -79,12 +79,11 @@ struct VisionParams {
   int unfiltered_min_ellipses{2};    ///< small ellipses needed to try the pass (target-free
                                      ///< frames rarely have two; the pass costs a search)
   // ---- identification by the layout (issue 12: far and grazing views; vision_layout.h) ----
-  bool layout_identification{false};  ///< when the ratio-by-ratio identification gives no
+  bool layout_identification{true};  ///< when the ratio-by-ratio identification gives no
                                      ///< pose, identify the sets by their places on the
                                      ///< hexagon, the ratios (photometric for small sets)
-                                     ///< judged together; the pose passes the same gates.
-                                     ///< Off until checked in the closed loop (README,
-                                     ///< estimator benchmark)
+                                     ///< judged together; the pose passes the same gates
+                                     ///< (README, estimator benchmark)
   double layout_ratio_tol{0.04};     ///< mean |ratio - model - common bias| of the placed
                                      ///< sets; none may exceed twice this
   double layout_max_ratio_bias{0.12};  ///< the common bias removed lies within [-this,
