@@ -220,7 +220,16 @@ void write_plan(const Campaign& c, const std::vector<PlannedRun>& plan, const st
     return;
   }
   sim::write_json_file(path, j);
-  sim::write_file_atomic(out_dir + "/campaign.yaml", sim::read_file_text(c.file, true));
+  // A record of the campaign file as given. Its scenario paths are relative to the original's
+  // directory, not to this copy's: the first line names that file (JSON-quoted, so that a
+  // path with a newline or invalid UTF-8 stays one comment line).
+  const std::string origin =
+      json(std::filesystem::absolute(c.file).lexically_normal().string())
+          .dump(-1, ' ', false, json::error_handler_t::replace);
+  sim::write_file_atomic(out_dir + "/campaign.yaml",
+                         "# copy of " + origin +
+                             " (its scenario paths are relative to that file's directory)\n" +
+                             sim::read_file_text(c.file, true));
 }
 
 std::optional<double> process_cpu_s(pid_t pid) {

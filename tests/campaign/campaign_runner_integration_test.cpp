@@ -54,6 +54,14 @@ void expect_complete_campaign(const std::string& d) {
                           "wind.steady_W_mps[1]", "touchdown_x_P_m", "touchdown_y_P_m", "wall_s", "status"}) {
     EXPECT_NE(std::find(csv.header.begin(), csv.header.end(), col), csv.header.end()) << col;
   }
+  // The copy of the campaign file names the original (its scenario paths are relative to
+  // it) on its first line, then holds the file as given.
+  const std::string copy = read_text(d + "/campaign.yaml");
+  const std::string origin = fs::absolute(kCampaign).lexically_normal().string();
+  const std::string first_line = copy.substr(0, copy.find('\n') + 1);
+  EXPECT_EQ(first_line, "# copy of \"" + origin +
+                            "\" (its scenario paths are relative to that file's directory)\n");
+  EXPECT_EQ(copy.substr(first_line.size()), read_text(kCampaign));
   const json c = read_json(d + "/campaign.json");
   EXPECT_EQ(c.at("runs_planned").get<int>(), 5);
   EXPECT_EQ(c.at("runs_complete").get<int>(), 5);
