@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iostream>
+#include <limits>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -241,6 +242,15 @@ TEST(VisionLayout, PhotometricRatioOfALightDiscIsNegative) {
   ASSERT_TRUE(pr.has_value());
   EXPECT_LT(pr->contrast, 0.0);
   e.centre = Eigen::Vector2d(3, 30);
+  EXPECT_FALSE(photometric_ratio(img, e).has_value());
+  // Non-finite or absurd ellipses give nothing (no undefined cast, no huge patch).
+  e.centre = Eigen::Vector2d(std::nan(""), 30);
+  EXPECT_FALSE(photometric_ratio(img, e).has_value());
+  e.centre = Eigen::Vector2d(40, 30);
+  e.angle_rad = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(photometric_ratio(img, e).has_value());
+  e.angle_rad = 0.0;
+  e.a = 1e9;
   EXPECT_FALSE(photometric_ratio(img, e).has_value());
 }
 

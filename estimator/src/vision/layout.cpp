@@ -254,7 +254,13 @@ std::optional<LayoutMatch> identify_by_layout(const std::vector<LayoutCandidate>
 }
 
 std::optional<PhotometricRatio> photometric_ratio(const cv::Mat& grey, const EllipseParams& e) {
-  if (grey.type() != CV_8UC1 || !(e.a > 0 && e.b > 0)) return std::nullopt;
+  // Sets at most this large are fitted (the layout asks for minor semi-axes up to 8 px, whose
+  // major ones are at most 8 / min_axis_ratio); it bounds the patch's memory.
+  constexpr double kMaxAxisPx = 128.0;
+  if (grey.type() != CV_8UC1 || !(e.a > 0 && e.b > 0 && e.a <= kMaxAxisPx && e.b <= kMaxAxisPx) ||
+      !std::isfinite(e.centre.x()) || !std::isfinite(e.centre.y()) || !std::isfinite(e.angle_rad)) {
+    return std::nullopt;
+  }
   // The patch: the ellipse grown by kMarginPx (a blurred edge's spread), on a rectangle grown
   // by the blur kernel's reach so that the model's blur sees the white around it.
   constexpr double kMarginPx = 1.5;
