@@ -173,12 +173,6 @@ TEST(VisionLayout, TooFewSetsOrRatiosGiveNoIdentity) {
   }
 }
 
-}  // namespace
-}  // namespace lander
-
-namespace lander {
-namespace {
-
 // Photometric ratios (photometric_ratio): every outer ring set of exactly drawn grazing
 // views (5-10 m, 60-75 deg from the normal: minor semi-axes 2-5 px, inner circles 0.5-3 px
 // across the minor axis), fitted at its exact projected outer ellipse.

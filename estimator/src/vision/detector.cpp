@@ -103,7 +103,6 @@ constexpr double kThreeSetMinResidualRatio = 3.0;
 constexpr double kPhotoMinContrast = 40.0;
 constexpr double kPhotoMaxRmsFraction = 0.25;
 
-
 bool poses_agree(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const VisionParams& p);
 
 // 8-bit grey frame in which at least `region` is converted: 8-bit grey input is used as is;

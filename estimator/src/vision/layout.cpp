@@ -326,9 +326,10 @@ std::optional<PhotometricRatio> photometric_ratio(const cv::Mat& grey, const Ell
     }
     for (double sigma : sigmas) {
       cv::GaussianBlur(cover, blurred, cv::Size(0, 0), sigma, 0, cv::BORDER_REPLICATE);
+      const float* model = blurred.ptr<float>();  // continuous: allocated by the blur
       double sm = 0.0, smm = 0.0, smi = 0.0;
       for (int t = 0; t < n; ++t) {
-        const double m = blurred.ptr<float>(patch[t] / w)[patch[t] % w];
+        const double m = model[patch[t]];
         sm += m;
         smm += m * m;
         smi += m * img[t];
