@@ -207,9 +207,13 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
       if (auto pc = make_pair(i, j)) pairs.push_back(*pc);
     }
   }
-  if (pairs.empty()) {
-    return fail(VisionStatus::NoConcentricPairs,
-                std::to_string(cands.size()) + " ellipses, no concentric pair (eq. 1)");
+  // No concentric pair: the frame ends here unless the layout can name outer circles alone
+  // by their photometric ratios (grazing views, whose inner circles are 1-3 px across).
+  const std::string no_pairs =
+      pairs.empty() ? std::to_string(cands.size()) + " ellipses, no concentric pair (eq. 1)" : "";
+  if (pairs.empty() &&
+      !(p.layout_identification && static_cast<int>(cands.size()) >= p.min_rings)) {
+    return fail(VisionStatus::NoConcentricPairs, no_pairs);
   }
   // Greedy one-to-one assignment by identity error; curves matching no ring set are dropped.
   std::vector<int> order(pairs.size());
@@ -642,6 +646,9 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
   chosen = chosen_ratio;
   pairs = pairs_ratio;
   used_ellipse = used_ratio;
+  if (!no_pairs.empty() && chosen.empty()) {
+    return fail(VisionStatus::NoConcentricPairs, no_pairs + "; layout: " + lwhy);
+  }
   d.reason += "; layout: " + lwhy;
   return false;
 }

@@ -38,24 +38,86 @@ struct Hypothesis {
   double bias{0.0};  // the common ratio offset removed
 };
 
-bool conflict(const Hypothesis& a, const Hypothesis& b) {
+// Whether candidates ca and cb stand for the same set: the same candidate, or two ellipses
+// found for one set (its outer circle at two threshold levels, or the central set's inner
+// circle beside its outer one), whose centres are within the smaller minor semi-axis of each
+// other, while neighbouring sets' centres are at least a set's diameter apart.
+bool same_place(const std::vector<LayoutCandidate>& cands, int ca, int cb) {
+  if (ca == cb) return true;
+  const double r = std::min(cands[ca].outer.b, cands[cb].outer.b);
+  return (cands[ca].centre - cands[cb].centre).norm() < r;
+}
+
+// Whether two hypotheses give some set different identities: a set named i by one and
+// placed elsewhere by the other, or named otherwise by it. Two hypotheses that differ only
+// in which of a set's duplicate ellipses stands for it agree.
+bool conflict(const std::vector<LayoutCandidate>& cands, const Hypothesis& a, const Hypothesis& b) {
   for (std::size_t i = 0; i < a.cand_of_ring.size(); ++i) {
     const int ca = a.cand_of_ring[i], cb = b.cand_of_ring[i];
-    if (ca >= 0 && cb >= 0 && ca != cb) return true;
     if (ca < 0) continue;
-    // The same candidate under another identity.
+    if (cb >= 0 && !same_place(cands, ca, cb)) return true;
+    // The same set under another identity.
     for (std::size_t k = 0; k < b.cand_of_ring.size(); ++k) {
-      if (k != i && b.cand_of_ring[k] == ca) return true;
+      if (k != i && b.cand_of_ring[k] >= 0 && same_place(cands, ca, b.cand_of_ring[k])) return true;
     }
   }
   return false;
 }
 
+// Twins: one set's circle found twice (at two threshold levels of the shadow pass, or by
+// two passes' ellipses), at the same place and of about the same size (within this fraction
+// on both axes; a set's inner circle is at most 0.75 of its outer one).
+constexpr double kTwinSizeTol = 0.15;
+
+// The candidates with every group of twins merged into its first member, whose ratio becomes
+// the mean of the group's measured ratios (photometric only if all of them are); `rep` maps
+// each merged candidate to its index in `input`. A set then enters each hypothesis once, with
+// one reading: a choice among twins would let every identity pick its most favourable
+// reading, and the wrong ones gain most from that.
+std::vector<LayoutCandidate> merge_twins(const std::vector<LayoutCandidate>& input,
+                                         std::vector<int>& rep) {
+  std::vector<LayoutCandidate> out;
+  std::vector<int> group(input.size(), -1);
+  rep.clear();
+  for (std::size_t i = 0; i < input.size(); ++i) {
+    if (group[i] >= 0) continue;
+    group[i] = static_cast<int>(out.size());
+    LayoutCandidate c = input[i];
+    double sum = 0.0;
+    int n = 0;
+    bool photometric = true;
+    auto add = [&](const LayoutCandidate& x) {
+      if (x.ratio < 0) return;
+      sum += x.ratio;
+      ++n;
+      photometric &= x.photometric;
+    };
+    add(input[i]);
+    for (std::size_t j = i + 1; j < input.size(); ++j) {
+      const LayoutCandidate& x = input[j];
+      if (group[j] >= 0 || !same_place(input, static_cast<int>(i), static_cast<int>(j)) ||
+          !(std::abs(x.outer.a / c.outer.a - 1.0) <= kTwinSizeTol) ||
+          !(std::abs(x.outer.b / c.outer.b - 1.0) <= kTwinSizeTol)) {
+        continue;
+      }
+      group[j] = group[i];
+      add(x);
+    }
+    c.ratio = n > 0 ? sum / n : -1.0;
+    c.photometric = n > 0 && photometric;
+    out.push_back(c);
+    rep.push_back(static_cast<int>(i));
+  }
+  return out;
+}
+
 }  // namespace
 
-std::optional<LayoutMatch> identify_by_layout(const std::vector<LayoutCandidate>& cands,
+std::optional<LayoutMatch> identify_by_layout(const std::vector<LayoutCandidate>& input,
                                               const TargetGeometry& target, const VisionParams& p,
                                               std::string& why) {
+  std::vector<int> rep;
+  const std::vector<LayoutCandidate> cands = merge_twins(input, rep);
   const int nr = static_cast<int>(target.rings.size());
   int centre_ring = -1;
   for (int i = 0; i < nr; ++i) {
@@ -230,7 +292,7 @@ std::optional<LayoutMatch> identify_by_layout(const std::vector<LayoutCandidate>
   // frame ambiguous.
   double runner = -1.0;
   for (const auto& h : hyps) {
-    if (&h == best || h.ratio_sets == 0 || !conflict(h, *best)) continue;
+    if (&h == best || h.ratio_sets == 0 || !conflict(cands, h, *best)) continue;
     if (runner < 0 || h.mean_err < runner) runner = h.mean_err;
     if (h.matched >= best->matched - 1 && h.mean_err <= best->mean_err + p.layout_ratio_margin) {
       os << "ambiguous layout: " << best->matched << " sets with mean ratio error "
@@ -243,7 +305,7 @@ std::optional<LayoutMatch> identify_by_layout(const std::vector<LayoutCandidate>
   LayoutMatch m;
   for (int i = 0; i < nr; ++i) {
     if (best->cand_of_ring[i] < 0) continue;
-    m.candidate.push_back(best->cand_of_ring[i]);
+    m.candidate.push_back(rep[best->cand_of_ring[i]]);
     m.ring_id.push_back(target.rings[i].id);
   }
   m.ratio_sets = best->ratio_sets;

@@ -18,7 +18,9 @@
 // (small rings read their ratios low): a hypothesis is kept only if they agree with the
 // model (mean within `layout_ratio_tol`, none beyond twice that), and no other identity of
 // about as many sets, valid or not, comes within `layout_ratio_margin` of it: the 180 deg
-// turn maps each set onto one whose ratio differs by only 0.08-0.1. The pose from the
+// turn maps each set onto one whose ratio differs by only 0.08-0.1 (a set found twice, as
+// ellipses at the same place and of about the same size, is one candidate with their mean
+// ratio: it neither rivals itself nor lets an identity pick its reading). The pose from the
 // assignment then passes every gate of the ratio path (layout check of the centres, conic
 // residual, eq. 30 reprojection).
 #pragma once
