@@ -91,7 +91,8 @@ struct VisionParams {
   double layout_ratio_margin{0.06};  ///< another identity (any) whose mean ratio error is
                                      ///< within this of the best makes the frame ambiguous
                                      ///< (synthetic: 0.03 named 0.4 % wrongly at 0.05 of
-                                     ///< ratio noise, 0.06 none in 1200 views)
+                                     ///< ratio noise, 0.06 none in 1200 views); with
+                                     ///< n > 4 ratios on both sides: x sqrt(4 / n)
   int layout_min_ratio_sets{3};      ///< measured ratios (inner circles found) needed
   double layout_position_tol{0.2};   ///< a set's rectified centre within this fraction of
                                      ///< its distance from the centre (weak perspective
