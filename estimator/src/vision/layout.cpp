@@ -303,9 +303,9 @@ std::optional<LayoutMatch> identify_by_layout(const std::vector<LayoutCandidate>
     if (runner < 0 || h.mean_err < runner) runner = h.mean_err;
     // The margin holds for up to kMarginReferenceSets ratios on either side; a mean over more
     // readings is less noisy, by the square root of their number.
-    const int nmin = std::min(best->ratio_sets, h.ratio_sets);
-    const double margin =
-        p.layout_ratio_margin * std::sqrt(kMarginReferenceSets / std::max(kMarginReferenceSets, 1.0 * nmin));
+    const double nmin = std::min(best->ratio_sets, h.ratio_sets);
+    const double margin = p.layout_ratio_margin *
+                          std::sqrt(kMarginReferenceSets / std::max(kMarginReferenceSets, nmin));
     if (h.matched >= best->matched - 1 && h.mean_err <= best->mean_err + margin) {
       os << "ambiguous layout: " << best->matched << " sets with mean ratio error "
          << best->mean_err << " against " << h.matched << " sets with " << h.mean_err
