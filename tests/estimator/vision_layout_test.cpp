@@ -37,6 +37,12 @@ std::vector<LayoutCandidate> project_sets(const TargetGeometry& g, const Eigen::
 
 struct Outcome {
   int identified{0}, refused{0}, wrong{0};
+  Outcome& operator+=(const Outcome& o) {
+    identified += o.identified;
+    refused += o.refused;
+    wrong += o.wrong;
+    return *this;
+  }
 };
 
 // Views from 8-16 m height, 0-65 deg off the normal, any yaw and azimuth; ratio noise
@@ -187,9 +193,7 @@ TEST(VisionLayout, TwoEllipsesOfOneSetAreOneIdentity) {
   // 2.6-sigma reading among them), 0 in 531 without twins. Wrong stays below 1 %.
   Outcome b;
   for (std::uint64_t seed = 10; seed < 20; ++seed) {
-    const Outcome o = run_views(300, 0.05, -0.04, 2, 1, 3, seed, 3);
-    b.identified += o.identified;
-    b.wrong += o.wrong;
+    b += run_views(300, 0.05, -0.04, 2, 1, 3, seed, 3);
   }
   EXPECT_LE(100 * b.wrong, b.identified) << "identified " << b.identified;
   EXPECT_GT(b.identified, 300);
@@ -206,12 +210,8 @@ TEST(VisionLayout, ManyRatiosNeedLessMargin) {
   // are identified, against 1493 with the one margin for any number of ratios.
   Outcome a, b;
   for (std::uint64_t seed = 30; seed < 40; ++seed) {
-    const Outcome oa = run_views(300, 0.03, -0.04, 0, 1, 3, seed);
-    const Outcome ob = run_views(300, 0.05, -0.04, 0, 1, 3, seed);
-    a.identified += oa.identified;
-    a.wrong += oa.wrong;
-    b.identified += ob.identified;
-    b.wrong += ob.wrong;
+    a += run_views(300, 0.03, -0.04, 0, 1, 3, seed);
+    b += run_views(300, 0.05, -0.04, 0, 1, 3, seed);
   }
   EXPECT_EQ(a.wrong, 0);
   EXPECT_EQ(b.wrong, 0) << "identified " << b.identified;

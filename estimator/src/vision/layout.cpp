@@ -84,11 +84,10 @@ constexpr double kTwinSizeTol = 0.15;
 std::vector<LayoutCandidate> merge_twins(const std::vector<LayoutCandidate>& input,
                                          std::vector<int>& rep) {
   std::vector<LayoutCandidate> out;
-  std::vector<int> group(input.size(), -1);
+  std::vector<bool> merged(input.size(), false);  // already in an earlier group
   rep.clear();
   for (std::size_t i = 0; i < input.size(); ++i) {
-    if (group[i] >= 0) continue;
-    group[i] = static_cast<int>(out.size());
+    if (merged[i]) continue;
     LayoutCandidate c = input[i];
     double sum = 0.0;
     int n = 0;
@@ -102,12 +101,12 @@ std::vector<LayoutCandidate> merge_twins(const std::vector<LayoutCandidate>& inp
     add(input[i]);
     for (std::size_t j = i + 1; j < input.size(); ++j) {
       const LayoutCandidate& x = input[j];
-      if (group[j] >= 0 || !same_place(input, static_cast<int>(i), static_cast<int>(j)) ||
+      if (merged[j] || !same_place(input, static_cast<int>(i), static_cast<int>(j)) ||
           !(std::abs(x.outer.a / c.outer.a - 1.0) <= kTwinSizeTol) ||
           !(std::abs(x.outer.b / c.outer.b - 1.0) <= kTwinSizeTol)) {
         continue;
       }
-      group[j] = group[i];
+      merged[j] = true;
       add(x);
     }
     c.ratio = n > 0 ? sum / n : -1.0;
