@@ -33,6 +33,7 @@ void EstimatorBenchParams::validate() const {
   require(yaws_per_view >= 1, "yaws_per_view", "must be >= 1");
   require(empty_frames >= 0, "empty_frames", "must be >= 0");
   require(aim_jitter_m >= 0, "aim_jitter_m", "must be >= 0");
+  for (int i : only_views) require(i >= 0, "only_views", "must be >= 0");
   require(!shadow_altitudes_m.empty(), "shadow_altitudes_m", "must not be empty");
   for (double a : shadow_altitudes_m) require(a > 0, "shadow_altitudes_m", "must be > 0");
   require(!shadow_tilts_deg.empty(), "shadow_tilts_deg", "must not be empty");
@@ -369,12 +370,18 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
     ms.add(alt, blur, tilt, resolved, [&](Stats& s) { add_square(s, d, cpu_ms, X_CP, truth); });
   };
 
+  int view_index = -1;  // the view's index in the whole sweep (with these lists)
   for (double alt : p.view_sweep ? p.altitudes_m : std::vector<double>{}) {
     for (double tilt : p.tilts_deg) {
       for (double blur : p.blur_px) {
         for (int k = 0; k < p.yaws_per_view; ++k) {
           const double yaw = 360.0 * U(rng), az = 360.0 * U(rng);
           const double jr = p.aim_jitter_m * std::sqrt(U(rng)), ja = 2 * M_PI * U(rng);
+          ++view_index;
+          if (!p.only_views.empty() && std::find(p.only_views.begin(), p.only_views.end(),
+                                                 view_index) == p.only_views.end()) {
+            continue;
+          }
           const Eigen::Vector2d aim(jr * std::cos(ja), jr * std::sin(ja));
           const Eigen::Isometry3d X_WC = X_WP * bench_camera_pose_P(alt, tilt, yaw, az, aim);
           const Eigen::Isometry3d X_CP = X_WC.inverse() * X_WP;
@@ -414,6 +421,7 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
           score_square(s_aruco_sub, ds, ms, X_CP, alt, blur, tilt, resolved);
           // One record a view, to find out why a view was missed.
           Json v = Json::object();
+          v["index"] = view_index;
           v["altitude_m"] = alt;
           v["tilt_deg"] = tilt;
           v["blur_px"] = blur;
@@ -436,7 +444,7 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
           }
           v["true_centres_px"] = std::move(tc);
           if (!d.detected && !p.save_misses_dir.empty()) {
-            write_png_file(p.save_misses_dir + "/view_" + std::to_string(views.size()) + ".png",
+            write_png_file(p.save_misses_dir + "/view_" + std::to_string(view_index) + ".png",
                            rings);
           }
           views.push_back(std::move(v));

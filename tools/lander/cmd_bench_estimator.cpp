@@ -32,17 +32,20 @@ namespace {
 constexpr const char* kUsage =
     "estimator --json FILE [--quick] [--synthetic] [--empty-frames N] [--yaws N]\n"
     "          [--shadows | --no-shadows | --shadows-only] [--altitudes A,..] [--tilts T,..]\n"
-    "          [--blurs B,..] [--save-misses DIR] [--params VISION.yaml]\n"
+    "          [--blurs B,..] [--views I,..] [--save-misses DIR] [--params VISION.yaml]\n"
     "  full sweep: views (altitude x tilt x blur) + empty frames + the shadow condition\n"
     "  (hard shadow bands 0.05/0.2/0.5/1 m wide at 20 % and 50 % light across the target,\n"
     "  1.5-10 m, tilt 0-45 deg, same frames for ours, AprilTag and ArUco; JSON `shadows`,\n"
     "  table on stderr); --quick: a small view sweep without shadows unless --shadows;\n"
     "  --shadows-only: the shadow condition alone; --no-shadows: leave it out;\n"
     "  --params: vision keys (flight.estimator.vision) over the defaults for ours, e.g.\n"
-    "  `zoom_pass: true` (the peers are unchanged)";
+    "  `zoom_pass: true` (the peers are unchanged); --views: only these indices of the view\n"
+    "  sweep (`index` in the JSON's `views`; with the same --altitudes/--tilts/--blurs/--yaws\n"
+    "  an index names the same view), e.g. to look again at a sweep's misses";
 
 int bench_estimator(const Args& args) {
-  ArgParser a(args, {"json", "empty-frames", "yaws", "altitudes", "tilts", "blurs", "save-misses", "params"},
+  ArgParser a(args, {"json", "empty-frames", "yaws", "altitudes", "tilts", "blurs", "views", "save-misses",
+               "params"},
               {"quick", "synthetic", "shadows", "no-shadows", "shadows-only"});
   if (!a.has("json")) throw UsageError("usage: lander bench estimator " + std::string(kUsage));
   if (a.flag("no-shadows") && (a.flag("shadows") || a.flag("shadows-only"))) {
@@ -67,6 +70,12 @@ int bench_estimator(const Args& args) {
   bp.altitudes_m = a.numbers("altitudes", bp.altitudes_m, any);
   bp.tilts_deg = a.numbers("tilts", bp.tilts_deg, any);
   bp.blur_px = a.numbers("blurs", bp.blur_px, any);
+  for (double i : a.numbers("views", {}, 0.0)) {
+    if (i != std::floor(i) || i > 1e6) {
+      throw UsageError("--views: " + std::to_string(i) + " is not a view index (a whole number)");
+    }
+    bp.only_views.push_back(static_cast<int>(i));
+  }
   if (a.has("save-misses")) {
     bp.save_misses_dir = a.value("save-misses");
     std::filesystem::create_directories(bp.save_misses_dir);

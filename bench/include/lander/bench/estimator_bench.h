@@ -71,7 +71,11 @@ struct EstimatorBenchParams {
   double aim_jitter_m{0.1};   ///< random offset of the aim point from the platform centre (m)
   bool view_sweep{true};      ///< run the sweep of views above (altitude x tilt x blur)
   std::string save_misses_dir;  ///< if set: each view-sweep ring frame ours misses is written
-                                ///< there as view_<n>.png (n: its index in `views`)
+                                ///< there as view_<n>.png (n: its sweep index, `index` in
+                                ///< `views`)
+  std::vector<int> only_views;  ///< if not empty: only these sweep indices are rendered and
+                                ///< scored (the others' random draws are still made, so an
+                                ///< index names the same view as in the whole sweep)
   // ---- shadow condition (issue 12): hard shadow bands across the target ----
   bool shadow_sweep{false};   ///< run the shadow condition (`lander bench estimator` turns
                               ///< it on for the full sweep)
