@@ -95,6 +95,20 @@ bool supported_image(const cv::Mat& img) {
 // few tenths; 3x keeps a clear margin between them.
 constexpr double kThreeSetMinResidualRatio = 3.0;
 
+// The platform pass's pose must put the top's corners on its outline within the larger of
+// these (px, and a fraction of the outline's shortest side): the outline's corners are found
+// to about a pixel, while a wrong identity of the sets (a turn by 60 or 120 deg) moves them by
+// a third of the side or more.
+constexpr double kPlatformCornerMinGatePx = 2.0;
+// The platform pass's choice between the plane's two tilts (see finish() in run_region): the
+// other tilt must fit the conics worse by this factor and the outline's corners by this one.
+// On exactly drawn and rendered views at 15-20 m (sets 3-5 px across) the right tilt's
+// residual was 1.13-1.7 times lower and its corner error 1.4-2.8 times; the one wrong choice
+// seen (the closed form's, 109 deg off) had the other tilt 4 % worse by the conics and 11 %
+// better by the corners.
+constexpr double kMirrorMinResidualRatio = 1.1;
+constexpr double kMirrorMinCornerRatio = 1.3;
+constexpr double kPlatformCornerGateFraction = 0.1;
 // A photometric ratio (photometric_ratio) is used only if its fit shows a dark set on light
 // with at least this contrast (grey levels; the rendered platform gives 150-230, an inner
 // circle mistaken for an outer one fits with a negative contrast) and an RMS residual below
@@ -141,9 +155,12 @@ Eigen::Vector2d project(const Eigen::Matrix3d& K, const Eigen::Isometry3d& X_CP,
 // `cands_out` receives the ellipse candidates (index-aligned with d.ellipses) for the
 // fewer-ring and combined poses.
 // `shadow` selects the shadow-tolerant segmentation (find_ellipses).
+// `guesses`, if given, replaces the contours: the ellipses are these guesses refined (the
+// platform pass).
 bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam,
                 const TargetGeometry& target, const VisionParams& p, RingDetection& d,
-                std::vector<EllipseCandidate>& cands, bool shadow = false) {
+                std::vector<EllipseCandidate>& cands, bool shadow = false,
+                const vision_internal::PlatformGuesses* platform = nullptr) {
   d = RingDetection{};
   d.roi = roi;
   auto fail = [&](VisionStatus s, std::string why) {
@@ -153,7 +170,9 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
     return false;
   };
   cv::Mat blurred;
-  cands = vision_internal::find_ellipses(grey, roi, cam, p, &blurred, shadow);
+  cands = platform ? vision_internal::refine_guesses(grey, roi, platform->ellipses, p.edge_search_px,
+                                                     cam, p, &blurred)
+                  : vision_internal::find_ellipses(grey, roi, cam, p, &blurred, shadow);
   auto add_ellipse = [&](const EllipseCandidate& c) {
     DetectedEllipse e;
     e.C = c.C;
@@ -547,6 +566,70 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
       os << "reprojection error " << d.reproj_err_px << " px (gate " << d.reproj_gate_px
          << "), conic residual " << d.edge_rms_px << " px (gate " << d.edge_gate_px << ")";
       return fail(VisionStatus::ReprojectionTooLarge, os.str());
+    }
+    // The platform pass's sets are a few pixels across and far away, where the plane's two
+    // mirror poses (IPPE's two solutions: the normal tilted either way about the line of
+    // sight) project almost alike, and the closed form's choice by the centres is a coin
+    // toss (seen on exactly drawn 20 m, 55 deg views: a pose 109 deg off). Both are refined
+    // on the conics and the one that fits them better is kept only if the other is worse by
+    // both measures the pass has: the conic residual, by kMirrorMinResidualRatio, and the
+    // top's corners against its outline, by kMirrorMinCornerRatio. Otherwise the frame is
+    // ambiguous.
+    if (platform != nullptr) {
+      std::vector<cv::Point3d> obj;
+      std::vector<cv::Point2d> img;
+      centre_points(chosen, obj, img);
+      std::vector<cv::Mat> rvecs, tvecs;
+      try {
+        cv::solvePnPGeneric(obj, img, Kcv, cv::noArray(), rvecs, tvecs, false, cv::SOLVEPNP_IPPE);
+      } catch (const cv::Exception&) {
+        rvecs.clear();
+      }
+      struct Tilt {
+        vision_internal::RefineResult r;
+        double corners_px;
+      };
+      std::vector<Tilt> tilts{{ref, vision_internal::platform_corner_error_px(platform->quad, ref.X_CP, cam, target)}};
+      for (std::size_t s = 0; s < rvecs.size(); ++s) {
+        const Eigen::Isometry3d X = pose_from_cv(rvecs[s], tvecs[s]);
+        if (!(X.translation().z() > 0) || poses_agree(X, d.X_CP, p)) continue;
+        const auto r = vision_internal::refine_pose_conics(K, X, obs, p.refine_points_per_ellipse,
+                                                           p.refine_max_iter);
+        if (!r.ok || !std::isfinite(r.rms_px) || poses_agree(r.X_CP, d.X_CP, p)) continue;
+        tilts.push_back({r, vision_internal::platform_corner_error_px(platform->quad, r.X_CP, cam, target)});
+      }
+      if (tilts.size() > 1) {
+        const bool second = tilts[1].r.rms_px < tilts[0].r.rms_px;
+        const Tilt& a = tilts[second ? 1 : 0];
+        const Tilt& b = tilts[second ? 0 : 1];
+        if (!(b.r.rms_px >= kMirrorMinResidualRatio * a.r.rms_px &&
+              b.corners_px >= kMirrorMinCornerRatio * a.corners_px)) {
+          std::ostringstream os;
+          os << "mirror pose ambiguous: conic residuals " << a.r.rms_px << " and " << b.r.rms_px
+             << " px, the top's corners " << a.corners_px << " and " << b.corners_px
+             << " px off its outline, for the plane's two tilts";
+          return fail(VisionStatus::PoseFailed, os.str());
+        }
+        if (second) {
+          d.X_CP = a.r.X_CP;
+          d.cov = a.r.cov;
+          d.edge_rms_px = a.r.rms_px;
+          d.refine_iterations = a.r.iterations;
+          double sum2 = 0.0;
+          for (int k : chosen) {
+            sum2 += (project(K, d.X_CP, target.ring(pairs[k].ring_id).centre_P_m) - pairs[k].centre)
+                        .squaredNorm();
+          }
+          d.reproj_err_sum_px2 = sum2;
+          d.reproj_err_px = std::sqrt(sum2 / chosen.size());
+          if (!(d.reproj_err_px <= d.reproj_gate_px)) {
+            std::ostringstream os;
+            os << "the better of the plane's two tilts reprojects the centres " << d.reproj_err_px
+               << " px (gate " << d.reproj_gate_px << ")";
+            return fail(VisionStatus::ReprojectionTooLarge, os.str());
+          }
+        }
+      }
     }
     d.detected = true;
     d.status = VisionStatus::Detected;
@@ -1274,6 +1357,67 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vect
     }
     if (!d.detected) d.reason += tried;
   }
+  // Platform pass (issue 12: far and grazing views; vision internal platform.cpp): no pose,
+  // and the frame shows a bright quadrilateral that may be the platform's top. Its outline
+  // predicts the ring sets' outer circles (two placements of the hexagon in the square); the
+  // guesses are refined to sub-pixel edges and identified and gated as contours' ellipses
+  // are, with the pre-filter and then without it (small sets, as the unfiltered pass).
+  if (!d.detected && params_.platform_pass && full.width >= 16 && full.height >= 16) {
+    whole_grey();
+    std::string tried;
+    for (const auto& q : vision_internal::platform_quads(grey, params_)) {
+      double x0 = q.corners[0].x(), x1 = x0, y0 = q.corners[0].y(), y1 = y0;
+      for (const auto& c : q.corners) {
+        x0 = std::min(x0, c.x()), x1 = std::max(x1, c.x());
+        y0 = std::min(y0, c.y()), y1 = std::max(y1, c.y());
+      }
+      const double gx = 0.25 * (x1 - x0) + 8, gy = 0.25 * (y1 - y0) + 8;
+      const cv::Rect region = covering_rect(x0 - gx, y0 - gy, x1 + gx, y1 + gy, full);
+      std::ostringstream os;
+      os << "platform pass on " << static_cast<int>(x1 - x0) << "x" << static_cast<int>(y1 - y0)
+         << " px at (" << static_cast<int>(x0) << ", " << static_cast<int>(y0) << ")";
+      for (int placement = 0; placement < 2 && !d.detected; ++placement) {
+        const vision_internal::PlatformGuesses guesses{
+            vision_internal::platform_set_guesses(q, placement, camera_, target_), q};
+        for (const double sigma : {params_.gaussian_sigma_px, 0.0}) {
+          VisionParams pp = params_;
+          pp.gaussian_sigma_px = sigma;
+          RingDetection dq;
+          std::vector<EllipseCandidate> cq;
+          bool ok = run_region(grey, region, camera_, target_, pp, dq, cq, false, &guesses);
+          if (ok) {
+            const double err = vision_internal::platform_corner_error_px(q, dq.X_CP, camera_, target_);
+            double side = std::numeric_limits<double>::infinity();
+            for (int k = 0; k < 4; ++k) side = std::min(side, (q.corners[k] - q.corners[(k + 1) % 4]).norm());
+            const double gate = std::max(kPlatformCornerMinGatePx, kPlatformCornerGateFraction * side);
+            if (!(err <= gate)) {
+              ok = false;
+              std::ostringstream oc;
+              oc << "the pose puts the top's corners " << err << " px off its outline (gate " << gate
+                 << " px): " << dq.reason;
+              dq.detected = false;
+              dq.status = VisionStatus::PoseFailed;
+              dq.reason = oc.str();
+            }
+          }
+          if (ok) {
+            dq.reason = os.str() + ", placement " + std::to_string(placement) +
+                        (sigma > 0 ? "" : ", unfiltered") + ": " + dq.reason + " (frame: " +
+                        d.reason + ")";
+            dq.by_platform = true;
+            d = std::move(dq);
+            cands = std::move(cq);
+            break;
+          }
+          tried += "; " + os.str() + ", placement " + std::to_string(placement) +
+                   (sigma > 0 ? "" : ", unfiltered") + ": " + dq.reason;
+          if (params_.gaussian_sigma_px <= 0) break;
+        }
+      }
+      if (d.detected) break;
+    }
+    if (!d.detected) d.reason += tried;
+  }
   // The track (the last pose) informs this frame only when tracking is on: with it off each
   // frame stands alone (single images, the estimator benchmark's independent views).
   const Eigen::Isometry3d* track = params_.tracking && have_prediction_ ? &X_CP_pred_ : nullptr;
@@ -1412,6 +1556,7 @@ std::string to_json(const RingDetection& d) {
   j["unfiltered"] = d.unfiltered;
   j["zoomed"] = d.zoomed;
   j["by_layout"] = d.by_layout;
+  j["by_platform"] = d.by_platform;
   j["roi"] = {d.roi.x, d.roi.y, d.roi.width, d.roi.height};
   j["time_ms"] = d.time_ms;
   Json centres = Json::array();

@@ -515,4 +515,33 @@ std::vector<EllipseCandidate> find_ellipses(const cv::Mat& grey, const cv::Rect&
   return unique_ellipses(out);
 }
 
+std::vector<EllipseCandidate> refine_guesses(const cv::Mat& grey, const cv::Rect& roi,
+                                             const std::vector<EllipseParams>& guesses,
+                                             double search_px, const CameraModel& cam,
+                                             const VisionParams& p, cv::Mat* blurred_out) {
+  const cv::Mat sub = grey(roi);
+  const cv::Point2f off(static_cast<float>(roi.x), static_cast<float>(roi.y));
+  cv::Mat blurred;
+  if (p.gaussian_sigma_px > 0) {
+    cv::GaussianBlur(sub, blurred, cv::Size(0, 0), p.gaussian_sigma_px, 0,
+                     cv::BORDER_REFLECT_101 | cv::BORDER_ISOLATED);
+  } else {
+    blurred = sub;
+  }
+  if (blurred_out) *blurred_out = blurred;
+  std::vector<EllipseCandidate> out;
+  for (const EllipseParams& e0 : guesses) {
+    // The whole guess inside the region, as a contour's must be.
+    const double r = e0.a + search_px;
+    if (e0.centre.x() - r < roi.x || e0.centre.y() - r < roi.y ||
+        e0.centre.x() + r > roi.x + roi.width - 1 || e0.centre.y() + r > roi.y + roi.height - 1) {
+      continue;
+    }
+    if (!(e0.b >= p.min_axis_px)) continue;
+    auto cand = refine_candidate(blurred, off, e0, search_px, cam, p);
+    if (cand) out.push_back(std::move(*cand));
+  }
+  return unique_ellipses(out);
+}
+
 }  // namespace lander::vision_internal

@@ -3,11 +3,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <array>
 #include <optional>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
+#include "lander/estimator/target.h"
 #include "lander/estimator/types.h"
 #include "lander/estimator/vision_conic.h"
 #include "lander/estimator/vision_params.h"
@@ -42,6 +44,40 @@ std::optional<EllipseCandidate> refine_candidate(const cv::Mat& blurred, const c
                                                  const EllipseParams& e0, double search_px,
                                                  const CameraModel& cam, const VisionParams& p,
                                                  bool split_light = false);
+
+// Sub-pixel ellipses from guesses instead of contours: `roi` of `grey` pre-filtered as
+// find_ellipses does (into `blurred_out`), each guess (raw image px) refined by
+// refine_candidate within +-search_px, duplicates dropped.
+std::vector<EllipseCandidate> refine_guesses(const cv::Mat& grey, const cv::Rect& roi,
+                                             const std::vector<EllipseParams>& guesses,
+                                             double search_px, const CameraModel& cam,
+                                             const VisionParams& p, cv::Mat* blurred_out);
+
+// The platform pass (platform.cpp; issue 12: far and grazing views). A bright convex
+// quadrilateral that may be the platform's top: corners in raw image px, in cyclic order.
+struct PlatformQuad {
+  std::array<Eigen::Vector2d, 4> corners;
+  double area{0.0};  ///< its contour's area (px^2)
+};
+// The frame's bright quadrilaterals (largest first, at most p.platform_max_quads).
+std::vector<PlatformQuad> platform_quads(const cv::Mat& grey, const VisionParams& p);
+// The ring sets' outer circles (and the central set's inner circle) predicted through the
+// homography of `q` to the top's corners, for `placement` 0 or 1 (the hexagon's two possible
+// places in a square seen up to its turns), as ellipses in raw image px.
+std::vector<EllipseParams> platform_set_guesses(const PlatformQuad& q, int placement,
+                                                const CameraModel& cam,
+                                                const TargetGeometry& target);
+// What the platform pass hands the ring search: the guessed ellipses and the outline.
+struct PlatformGuesses {
+  std::vector<EllipseParams> ellipses;
+  PlatformQuad quad;
+};
+// The largest distance (raw px) between the top's corners projected with X_CP and the
+// corners of `q`, under the best pairing of the two cycles: a pose must put the top where its
+// outline is (a wrong identity of the sets turns the pose by a multiple of 60 deg, which moves
+// the square's corners; only the hexagon's 180 deg turn keeps them).
+double platform_corner_error_px(const PlatformQuad& q, const Eigen::Isometry3d& X_CP,
+                                const CameraModel& cam, const TargetGeometry& target);
 
 // Stage 5b: Levenberg-Marquardt on the conic reprojection cost (seed 000 eq. 14-15).
 struct ConicObservation {

@@ -52,6 +52,9 @@ void VisionParams::validate() const {
   require(zoom_max_region_px >= 16 && zoom_max_region_px <= 2048, "zoom_max_region_px",
           "must be in [16, 2048]");
   require(zoom_max_regions >= 0 && zoom_max_regions <= 16, "zoom_max_regions", "must be in [0, 16]");
+  require(platform_min_area_px >= 16, "platform_min_area_px", "must be >= 16");
+  require(platform_max_quads >= 0 && platform_max_quads <= 16, "platform_max_quads",
+          "must be in [0, 16]");
   require(refine_max_iter >= 0, "refine_max_iter", "must be >= 0");
   require(refine_points_per_ellipse >= 6, "refine_points_per_ellipse", "must be >= 6");
   require(max_reproj_err_px > 0, "max_reproj_err_px", "must be > 0");

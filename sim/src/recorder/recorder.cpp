@@ -164,6 +164,7 @@ void Recorder::on_frame(const CameraFrame& frame, const FrameCapture& cap, const
     if (det.unfiltered) ++detections_unfiltered_;
     if (det.zoomed) ++detections_zoomed_;
     if (det.by_layout) ++detections_by_layout_;
+    if (det.by_platform) ++detections_by_platform_;
     if (det.keyframe) ++keyframes_;
     if (det.keyframe_status == KeyframeStatus::Rejected) ++keyframes_rejected_;
   } else {
@@ -343,6 +344,7 @@ void Recorder::finish(const Outcome& outcome, const flight::FlightStack& fs, Jso
   vision["detections_unfiltered"] = detections_unfiltered_;
   vision["detections_zoomed"] = detections_zoomed_;
   vision["detections_by_layout"] = detections_by_layout_;
+  vision["detections_by_platform"] = detections_by_platform_;
   vision["keyframes"] = keyframes_;
   vision["keyframes_rejected"] = keyframes_rejected_;
   Json reasons = Json::object();

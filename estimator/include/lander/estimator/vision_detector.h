@@ -138,6 +138,8 @@ struct RingDetection {
                                  ///< region magnified twice)
   bool by_layout{false};         ///< its ring sets were identified by the layout
                                  ///< (vision_layout.h), not ratio by ratio
+  bool by_platform{false};       ///< the pose came from the platform pass (the sets' places
+                                 ///< predicted from the platform top's outline)
   cv::Rect roi;                  ///< region searched last (full frame if no ROI)
   double time_ms{0.0};           ///< wall time of detect() (ms)
 };

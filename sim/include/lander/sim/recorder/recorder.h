@@ -107,6 +107,7 @@ class Recorder {
   int detections_unfiltered_ = 0;  // ... from the unfiltered pass (issue 12)
   int detections_zoomed_ = 0;     // ... from the zoomed pass (issue 12)
   int detections_by_layout_ = 0;  // ... whose sets were identified by the layout (issue 12)
+  int detections_by_platform_ = 0;  // ... from the platform pass (issue 12)
   int outliers_injected_ = 0;
   bool last_detected_ = false;
   std::map<std::string, int> not_detected_reasons_;
