@@ -115,7 +115,7 @@ struct VisionParams {
   int zoom_max_region_px{400};       ///< regions larger than this (px, either side) are skipped
   int zoom_max_regions{2};           ///< at most this many regions a frame, most ellipses first
   // ---- platform pass (issue 12: far and grazing views; vision internal platform.cpp) ----
-  bool platform_pass{false};         ///< no pose from the frame: the bright quadrilaterals
+  bool platform_pass{true};          ///< no pose from the frame: the bright quadrilaterals
                                      ///< that may be the platform's white top predict where
                                      ///< the ring sets' outer circles are (the hexagon's two
                                      ///< placements in the square); those guesses are refined
