@@ -3,13 +3,13 @@
 // and 40-60 deg from the platform normal, every pose a pass reports must be right (position
 // and rotation against the truth), a frame the earlier passes detect must be detected the
 // same way, and target-free frames with ring-like decoys must stay empty.
+#include <gtest/gtest.h>
+
 #include <iostream>
+#include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include <gtest/gtest.h>
-#include <opencv2/imgproc.hpp>
 
 #include "lander/estimator/vision_detector.h"
 #include "support/vision_synth.h"
@@ -268,8 +268,9 @@ TEST(VisionFar, TargetFreeFramesStayEmptyWithThePlatformPass) {
       const cv::Point2f c(500 + rng.uniform(0, 200), 250 + rng.uniform(0, 150));
       const float w = 30 + rng.uniform(0, 40), h = 18 + rng.uniform(0, 30);
       const float sh = rng.uniform(-10, 10);
-      std::vector<cv::Point> quad{cv::Point(c.x - w + sh, c.y - h), cv::Point(c.x + w + sh, c.y - h),
-                                  cv::Point(c.x + w - sh, c.y + h), cv::Point(c.x - w - sh, c.y + h)};
+      std::vector<cv::Point> quad{
+          cv::Point(c.x - w + sh, c.y - h), cv::Point(c.x + w + sh, c.y - h),
+          cv::Point(c.x + w - sh, c.y + h), cv::Point(c.x - w - sh, c.y + h)};
       cv::fillConvexPoly(img, quad, cv::Scalar::all(245), cv::LINE_AA);
       if (kind > 0) {
         for (int i = 0; i < 7; ++i) {

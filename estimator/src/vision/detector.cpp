@@ -170,9 +170,9 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
     return false;
   };
   cv::Mat blurred;
-  cands = platform ? vision_internal::refine_guesses(grey, roi, platform->ellipses, p.edge_search_px,
-                                                     cam, p, &blurred)
-                  : vision_internal::find_ellipses(grey, roi, cam, p, &blurred, shadow);
+  cands = platform ? vision_internal::refine_guesses(grey, roi, platform->ellipses,
+                                                     p.edge_search_px, cam, p, &blurred)
+                   : vision_internal::find_ellipses(grey, roi, cam, p, &blurred, shadow);
   auto add_ellipse = [&](const EllipseCandidate& c) {
     DetectedEllipse e;
     e.C = c.C;
@@ -353,16 +353,23 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
     Eigen::Isometry3d X;
     double max_err;
   };
-  auto ippe = [&](const std::vector<int>& set) -> std::optional<Fit> {
-    std::vector<cv::Point3d> obj;
-    std::vector<cv::Point2d> img;
+  // IPPE's two solutions (the plane's two tilts) on the centres of `set`; false if it fails.
+  auto ippe_solutions = [&](const std::vector<int>& set, std::vector<cv::Point3d>& obj,
+                            std::vector<cv::Point2d>& img, std::vector<cv::Mat>& rvecs,
+                            std::vector<cv::Mat>& tvecs) {
     centre_points(set, obj, img);
-    std::vector<cv::Mat> rvecs, tvecs;
     try {
       cv::solvePnPGeneric(obj, img, Kcv, cv::noArray(), rvecs, tvecs, false, cv::SOLVEPNP_IPPE);
     } catch (const cv::Exception&) {
-      return std::nullopt;
+      return false;
     }
+    return true;
+  };
+  auto ippe = [&](const std::vector<int>& set) -> std::optional<Fit> {
+    std::vector<cv::Point3d> obj;
+    std::vector<cv::Point2d> img;
+    std::vector<cv::Mat> rvecs, tvecs;
+    if (!ippe_solutions(set, obj, img, rvecs, tvecs)) return std::nullopt;
     auto max_err = [&](const Eigen::Isometry3d& X) {
       double mx = 0.0;
       for (int k : set) {
@@ -551,13 +558,16 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
     d.edge_rms_px = ref.rms_px;
     d.refine_iterations = ref.iterations;
     // Eq. (30): sum over identified centres of |x_i - H X_i|^2.
-    double sum = 0.0;
-    for (int k : chosen) {
-      sum += (project(K, d.X_CP, target.ring(pairs[k].ring_id).centre_P_m) - pairs[k].centre)
-                 .squaredNorm();
-    }
-    d.reproj_err_sum_px2 = sum;
-    d.reproj_err_px = std::sqrt(sum / chosen.size());
+    auto set_reprojection = [&]() {
+      double sum = 0.0;
+      for (int k : chosen) {
+        sum += (project(K, d.X_CP, target.ring(pairs[k].ring_id).centre_P_m) - pairs[k].centre)
+                   .squaredNorm();
+      }
+      d.reproj_err_sum_px2 = sum;
+      d.reproj_err_px = std::sqrt(sum / chosen.size());
+    };
+    set_reprojection();
     const vision_internal::RingGates gates = vision_internal::ring_gates(p, extent_of(chosen));
     d.reproj_gate_px = gates.reproj_px;
     d.edge_gate_px = gates.edge_px;
@@ -578,25 +588,22 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
     if (platform != nullptr) {
       std::vector<cv::Point3d> obj;
       std::vector<cv::Point2d> img;
-      centre_points(chosen, obj, img);
       std::vector<cv::Mat> rvecs, tvecs;
-      try {
-        cv::solvePnPGeneric(obj, img, Kcv, cv::noArray(), rvecs, tvecs, false, cv::SOLVEPNP_IPPE);
-      } catch (const cv::Exception&) {
-        rvecs.clear();
-      }
+      if (!ippe_solutions(chosen, obj, img, rvecs, tvecs)) rvecs.clear();
       struct Tilt {
         vision_internal::RefineResult r;
         double corners_px;
       };
-      std::vector<Tilt> tilts{{ref, vision_internal::platform_corner_error_px(platform->quad, ref.X_CP, cam, target)}};
+      std::vector<Tilt> tilts{
+          {ref, vision_internal::platform_corner_error_px(platform->quad, ref.X_CP, cam, target)}};
       for (std::size_t s = 0; s < rvecs.size(); ++s) {
         const Eigen::Isometry3d X = pose_from_cv(rvecs[s], tvecs[s]);
         if (!(X.translation().z() > 0) || poses_agree(X, d.X_CP, p)) continue;
         const auto r = vision_internal::refine_pose_conics(K, X, obs, p.refine_points_per_ellipse,
                                                            p.refine_max_iter);
         if (!r.ok || !std::isfinite(r.rms_px) || poses_agree(r.X_CP, d.X_CP, p)) continue;
-        tilts.push_back({r, vision_internal::platform_corner_error_px(platform->quad, r.X_CP, cam, target)});
+        tilts.push_back(
+            {r, vision_internal::platform_corner_error_px(platform->quad, r.X_CP, cam, target)});
       }
       if (tilts.size() > 1) {
         const bool second = tilts[1].r.rms_px < tilts[0].r.rms_px;
@@ -615,13 +622,7 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
           d.cov = a.r.cov;
           d.edge_rms_px = a.r.rms_px;
           d.refine_iterations = a.r.iterations;
-          double sum2 = 0.0;
-          for (int k : chosen) {
-            sum2 += (project(K, d.X_CP, target.ring(pairs[k].ring_id).centre_P_m) - pairs[k].centre)
-                        .squaredNorm();
-          }
-          d.reproj_err_sum_px2 = sum2;
-          d.reproj_err_px = std::sqrt(sum2 / chosen.size());
+          set_reprojection();
           if (!(d.reproj_err_px <= d.reproj_gate_px)) {
             std::ostringstream os;
             os << "the better of the plane's two tilts reprojects the centres " << d.reproj_err_px
@@ -735,7 +736,6 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
   d.reason += "; layout: " + lwhy;
   return false;
 }
-
 
 // ---- fewer-ring poses and ring + code combination ----
 
@@ -1386,15 +1386,18 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vect
           std::vector<EllipseCandidate> cq;
           bool ok = run_region(grey, region, camera_, target_, pp, dq, cq, false, &guesses);
           if (ok) {
-            const double err = vision_internal::platform_corner_error_px(q, dq.X_CP, camera_, target_);
+            const double err =
+                vision_internal::platform_corner_error_px(q, dq.X_CP, camera_, target_);
             double side = std::numeric_limits<double>::infinity();
-            for (int k = 0; k < 4; ++k) side = std::min(side, (q.corners[k] - q.corners[(k + 1) % 4]).norm());
-            const double gate = std::max(kPlatformCornerMinGatePx, kPlatformCornerGateFraction * side);
+            for (int k = 0; k < 4; ++k)
+              side = std::min(side, (q.corners[k] - q.corners[(k + 1) % 4]).norm());
+            const double gate =
+                std::max(kPlatformCornerMinGatePx, kPlatformCornerGateFraction * side);
             if (!(err <= gate)) {
               ok = false;
               std::ostringstream oc;
-              oc << "the pose puts the top's corners " << err << " px off its outline (gate " << gate
-                 << " px): " << dq.reason;
+              oc << "the pose puts the top's corners " << err << " px off its outline (gate "
+                 << gate << " px): " << dq.reason;
               dq.detected = false;
               dq.status = VisionStatus::PoseFailed;
               dq.reason = oc.str();
@@ -1402,8 +1405,8 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vect
           }
           if (ok) {
             dq.reason = os.str() + ", placement " + std::to_string(placement) +
-                        (sigma > 0 ? "" : ", unfiltered") + ": " + dq.reason + " (frame: " +
-                        d.reason + ")";
+                        (sigma > 0 ? "" : ", unfiltered") + ": " + dq.reason +
+                        " (frame: " + d.reason + ")";
             dq.by_platform = true;
             d = std::move(dq);
             cands = std::move(cq);

@@ -12,7 +12,6 @@
 #include <array>
 #include <cmath>
 #include <limits>
-
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -55,7 +54,8 @@ std::optional<std::array<Eigen::Vector2d, 4>> refine_quad(const std::vector<cv::
                                                           const std::vector<cv::Point>& approx) {
   std::array<cv::Vec4f, 4> lines;
   for (int k = 0; k < 4; ++k) {
-    const Eigen::Vector2d a(approx[k].x, approx[k].y), b(approx[(k + 1) % 4].x, approx[(k + 1) % 4].y);
+    const Eigen::Vector2d a(approx[k].x, approx[k].y),
+        b(approx[(k + 1) % 4].x, approx[(k + 1) % 4].y);
     const Eigen::Vector2d u = (b - a).normalized();
     const double len = (b - a).norm();
     std::vector<cv::Point2f> pts;
@@ -184,7 +184,8 @@ std::vector<EllipseParams> platform_set_guesses(const PlatformQuad& q, int place
     std::vector<Eigen::Vector2d> pts;
     for (int k = 0; k < kPoints; ++k) {
       const double a = 2 * M_PI * k / kPoints;
-      const Eigen::Vector3d m(centre.x() + radius * std::cos(a), centre.y() + radius * std::sin(a), 1);
+      const Eigen::Vector3d m(centre.x() + radius * std::cos(a), centre.y() + radius * std::sin(a),
+                              1);
       const Eigen::Vector3d u = He * m;
       if (!(u.z() > 1e-9)) return;
       pts.push_back(cam.distort_px(u.head<2>() / u.z()));

@@ -115,15 +115,15 @@ struct VisionParams {
   int zoom_max_region_px{400};       ///< regions larger than this (px, either side) are skipped
   int zoom_max_regions{2};           ///< at most this many regions a frame, most ellipses first
   // ---- platform pass (issue 12: far and grazing views; vision internal platform.cpp) ----
-  bool platform_pass{true};          ///< no pose from the frame: the bright quadrilaterals
-                                     ///< that may be the platform's white top predict where
-                                     ///< the ring sets' outer circles are (the hexagon's two
-                                     ///< placements in the square); those guesses are refined
-                                     ///< to sub-pixel edges and searched as contours are, under
-                                     ///< the same identification and gates. For sets a few px
-                                     ///< across, whose contours merge or break at any level
+  bool platform_pass{true};            ///< no pose from the frame: the bright quadrilaterals
+                                       ///< that may be the platform's white top predict where
+                                       ///< the ring sets' outer circles are (the hexagon's two
+                                       ///< placements in the square); those guesses are refined
+                                       ///< to sub-pixel edges and searched as contours are, under
+                                       ///< the same identification and gates. For sets a few px
+                                       ///< across, whose contours merge or break at any level
   double platform_min_area_px{150.0};  ///< smallest top (px^2) taken as a quadrilateral
-  int platform_max_quads{3};         ///< at most this many quadrilaterals a frame, largest first
+  int platform_max_quads{3};           ///< at most this many quadrilaterals a frame, largest first
   // ---- blur (issue 12): the motion blur the caller predicts for the frame ----
   bool predict_blur{true};           ///< the flight stack predicts each frame's blur from its
                                      ///< own motion estimate and the exposure time and hands it
