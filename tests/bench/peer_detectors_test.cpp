@@ -197,5 +197,41 @@ TEST(EstimatorBench, SmallSyntheticSweepWritesAllKeys) {
   EXPECT_TRUE(test::at_path(j, "ours.by_tilt_deg").contains("30")) << j.dump();
 }
 
+// `only_views` (`lander bench estimator --views`) renders only those sweep indices, and each is
+// the same view as in the whole sweep (same pose, same result), so a sweep's miss can be
+// looked at again alone.
+TEST(EstimatorBench, OnlyViewsAreTheWholeSweepsViewsOfThoseIndices) {
+  const TargetGeometry& g = target();
+  const CameraModel cam;
+  Eigen::Isometry3d X_WP = Eigen::Isometry3d::Identity();
+  X_WP.translation() = Eigen::Vector3d(1.0, 2.0, 0.8);
+  EstimatorBenchParams p;
+  p.altitudes_m = {2.5, 5.0};
+  p.tilts_deg = {0.0, 30.0};
+  p.blur_px = {0.0};
+  p.yaws_per_view = 1;
+  p.empty_frames = 0;
+  const auto renderer = make_synthetic_bench_renderer(g, cam, X_WP);
+  const nlohmann::json all =
+      test::parse_json(run_estimator_bench(renderer, X_WP, g, cam, VisionParams{}, p));
+  p.only_views = {1, 3};
+  const nlohmann::json some =
+      test::parse_json(run_estimator_bench(renderer, X_WP, g, cam, VisionParams{}, p));
+  ASSERT_EQ(test::at_path(all, "views").size(), 4u);
+  ASSERT_EQ(test::at_path(some, "views").size(), 2u);
+  for (std::size_t k = 0; k < 2; ++k) {
+    const nlohmann::json& v = some.at("views").at(k);
+    const int index = v.at("index").get<int>();
+    EXPECT_EQ(index, p.only_views[k]);
+    const nlohmann::json& w = all.at("views").at(static_cast<std::size_t>(index));
+    EXPECT_EQ(w.at("index").get<int>(), index);
+    for (const char* key : {"altitude_m", "tilt_deg", "yaw_deg", "azimuth_deg", "min_ring_px",
+                            "ours_pos_err_m", "ours_rot_err_deg"}) {
+      EXPECT_EQ(v.at(key).get<double>(), w.at(key).get<double>()) << key << " of view " << index;
+    }
+  }
+  EXPECT_DOUBLE_EQ(test::number_at(some, "ours.overall.frames"), 2.0);
+}
+
 }  // namespace
 }  // namespace lander::bench
