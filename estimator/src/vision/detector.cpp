@@ -100,6 +100,7 @@ constexpr double kThreeSetMinResidualRatio = 3.0;
 // to about a pixel, while a wrong identity of the sets (a turn by 60 or 120 deg) moves them by
 // a third of the side or more.
 constexpr double kPlatformCornerMinGatePx = 2.0;
+constexpr double kPlatformCornerGateFraction = 0.1;
 // The platform pass's choice between the plane's two tilts (see finish() in run_region): the
 // other tilt must fit the conics worse by this factor and the outline's corners by this one.
 // On exactly drawn and rendered views at 15-20 m (sets 3-5 px across) the right tilt's
@@ -108,7 +109,6 @@ constexpr double kPlatformCornerMinGatePx = 2.0;
 // better by the corners.
 constexpr double kMirrorMinResidualRatio = 1.1;
 constexpr double kMirrorMinCornerRatio = 1.3;
-constexpr double kPlatformCornerGateFraction = 0.1;
 // A photometric ratio (photometric_ratio) is used only if its fit shows a dark set on light
 // with at least this contrast (grey levels; the rendered platform gives 150-230, an inner
 // circle mistaken for an outer one fits with a negative contrast) and an RMS residual below

@@ -389,7 +389,38 @@ std::optional<EllipseCandidate> refine_candidate(const cv::Mat& blurred, const c
   return cand;
 }
 
+int bright_level(const cv::Mat& grey, double pixels) {
+  int hist[256] = {0};
+  for (int y = 0; y < grey.rows; ++y) {
+    const std::uint8_t* r = grey.ptr<std::uint8_t>(y);
+    for (int x = 0; x < grey.cols; ++x) ++hist[r[x]];
+  }
+  int level = 255;
+  for (double acc = 0; level > 0; --level) {
+    acc += hist[level];
+    if (acc >= pixels) break;
+  }
+  return level;
+}
+
 namespace {
+
+// The pre-filter of a search region `sub` (a view of the frame's grey buffer) into `blurred`
+// (which may be a view of a reusable buffer of sub's size): the Gaussian of
+// p.gaussian_sigma_px, or `sub` itself when it is 0.
+void prefilter(const cv::Mat& sub, const VisionParams& p, cv::Mat& blurred) {
+  if (p.gaussian_sigma_px > 0) {
+    // BORDER_ISOLATED: a region's blur must not read the pixels around it. `sub` is a view of
+    // the frame's grey buffer, converted in the region only when tracking; outside it the
+    // buffer holds whatever this thread converted last, so reading there made a detection
+    // depend on the thread's history (the overlapped schedule's worker differed from the
+    // serial loop's thread: tests/estimator/vision_determinism_test.cpp).
+    cv::GaussianBlur(sub, blurred, cv::Size(0, 0), p.gaussian_sigma_px, 0,
+                     cv::BORDER_REFLECT_101 | cv::BORDER_ISOLATED);
+  } else {
+    blurred = sub;
+  }
+}
 
 // Shadow-tolerant segmentation. Under a hard shadow (light s) the target's two reflectances
 // give four grey levels: lit white W, lit black B, shadowed white sW, shadowed black sB. A
@@ -403,17 +434,8 @@ std::vector<EllipseCandidate> find_ellipses_shadow(const cv::Mat& blurred, cv::M
                                                    const cv::Point2f& off, const cv::Rect& roi,
                                                    const CameraModel& cam, const VisionParams& p) {
   // White reference: the 99.5th percentile of the grey levels.
-  int hist[256] = {0};
-  for (int y = 0; y < blurred.rows; ++y) {
-    const std::uint8_t* r = blurred.ptr<std::uint8_t>(y);
-    for (int x = 0; x < blurred.cols; ++x) ++hist[r[x]];
-  }
-  const double total = static_cast<double>(blurred.rows) * blurred.cols;
-  int white = 255;
-  for (double acc = 0; white > 0; --white) {
-    acc += hist[white];
-    if (acc >= 0.005 * total) break;
-  }
+  const int white =
+      bright_level(blurred, 0.005 * static_cast<double>(blurred.rows) * blurred.cols);
   std::vector<EllipseCandidate> out;
   std::vector<EllipseParams> seen;  // initial ellipses already refined
   std::vector<std::vector<cv::Point>> contours;
@@ -464,19 +486,8 @@ std::vector<EllipseCandidate> find_ellipses(const cv::Mat& grey, const cv::Rect&
       b->create(std::max(b->rows, roi.height), std::max(b->cols, roi.width), CV_8UC1);
     }
   }
-  cv::Mat blurred;
-  if (p.gaussian_sigma_px > 0) {
-    blurred = blurred_buf(cv::Rect(0, 0, roi.width, roi.height));
-    // BORDER_ISOLATED: a region's blur must not read the pixels around it. `sub` is a view of
-    // the frame's grey buffer, converted in the region only when tracking; outside it the
-    // buffer holds whatever this thread converted last, so reading there made a detection
-    // depend on the thread's history (the overlapped schedule's worker differed from the
-    // serial loop's thread: tests/estimator/vision_determinism_test.cpp).
-    cv::GaussianBlur(sub, blurred, cv::Size(0, 0), p.gaussian_sigma_px, 0,
-                     cv::BORDER_REFLECT_101 | cv::BORDER_ISOLATED);
-  } else {
-    blurred = sub;
-  }
+  cv::Mat blurred = blurred_buf(cv::Rect(0, 0, roi.width, roi.height));
+  prefilter(sub, p, blurred);
   // Dark annuli become foreground (255).
   cv::Mat bin = bin_buf(cv::Rect(0, 0, roi.width, roi.height));
   if (blurred_out) *blurred_out = blurred;
@@ -522,12 +533,7 @@ std::vector<EllipseCandidate> refine_guesses(const cv::Mat& grey, const cv::Rect
   const cv::Mat sub = grey(roi);
   const cv::Point2f off(static_cast<float>(roi.x), static_cast<float>(roi.y));
   cv::Mat blurred;
-  if (p.gaussian_sigma_px > 0) {
-    cv::GaussianBlur(sub, blurred, cv::Size(0, 0), p.gaussian_sigma_px, 0,
-                     cv::BORDER_REFLECT_101 | cv::BORDER_ISOLATED);
-  } else {
-    blurred = sub;
-  }
+  prefilter(sub, p, blurred);
   if (blurred_out) *blurred_out = blurred;
   std::vector<EllipseCandidate> out;
   for (const EllipseParams& e0 : guesses) {

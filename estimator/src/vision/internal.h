@@ -4,9 +4,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <opencv2/core.hpp>
 #include <optional>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "lander/estimator/target.h"
 #include "lander/estimator/types.h"
@@ -43,6 +44,10 @@ std::optional<EllipseCandidate> refine_candidate(const cv::Mat& blurred, const c
                                                  const EllipseParams& e0, double search_px,
                                                  const CameraModel& cam, const VisionParams& p,
                                                  bool split_light = false);
+
+// The brightest grey level that at least `pixels` pixels of the 8-bit `grey` reach (a white
+// reference: the shadow pass's 99.5th percentile, the platform pass's brightest small area).
+int bright_level(const cv::Mat& grey, double pixels);
 
 // Sub-pixel ellipses from guesses instead of contours: `roi` of `grey` pre-filtered as
 // find_ellipses does (into `blurred_out`), each guess (raw image px) refined by

@@ -12,6 +12,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -36,6 +37,13 @@ constexpr double kSideBandPx = 2.0;
 constexpr double kSideEndFraction = 0.15;
 // Two quadrilaterals whose corners are all within this of each other are one (px).
 constexpr double kSameQuadPx = 3.0;
+
+// The platform top's corners in P (m), in cyclic order.
+std::array<Eigen::Vector2d, 4> top_corners_P(const TargetGeometry& target) {
+  const double hx = 0.5 * target.platform_size_m.x(), hy = 0.5 * target.platform_size_m.y();
+  return {Eigen::Vector2d(-hx, -hy), Eigen::Vector2d(hx, -hy), Eigen::Vector2d(hx, hy),
+          Eigen::Vector2d(-hx, hy)};
+}
 
 std::optional<Eigen::Vector2d> intersect(const cv::Vec4f& l1, const cv::Vec4f& l2) {
   // Lines as (vx, vy, x0, y0): x0 + s v1 = x0' + t v2.
@@ -88,18 +96,8 @@ std::vector<PlatformQuad> platform_quads(const cv::Mat& grey, const VisionParams
   // White reference: the brightest level that a quarter of the smallest top reaches (the top
   // is the scene's white, and far away it covers well under 0.1 % of the frame, so a
   // percentile of the frame would fall on the ground).
-  int hist[256] = {0};
-  for (int y = 0; y < grey.rows; ++y) {
-    const std::uint8_t* r = grey.ptr<std::uint8_t>(y);
-    for (int x = 0; x < grey.cols; ++x) ++hist[r[x]];
-  }
-  const double total = static_cast<double>(grey.total());
-  int white = 255;
-  for (double acc = 0; white > 0; --white) {
-    acc += hist[white];
-    if (acc >= 0.25 * p.platform_min_area_px) break;
-  }
-  const double max_area = 0.5 * total;
+  const int white = bright_level(grey, 0.25 * p.platform_min_area_px);
+  const double max_area = 0.5 * static_cast<double>(grey.total());
   cv::Mat bin;
   std::vector<std::vector<cv::Point>> contours;
   for (double f : kTopLevels) {
@@ -153,12 +151,10 @@ std::vector<EllipseParams> platform_set_guesses(const PlatformQuad& q, int place
   // The top's corners in P, in cyclic order; `placement` 1 starts one corner on (a turn of
   // 90 deg). Either sense of the cycle gives the same places (the hexagon is symmetric
   // about P's x axis), so the image's orientation of the quadrilateral does not matter.
-  const double hx = 0.5 * target.platform_size_m.x(), hy = 0.5 * target.platform_size_m.y();
-  const std::array<cv::Point2d, 4> model{cv::Point2d(-hx, -hy), cv::Point2d(hx, -hy),
-                                         cv::Point2d(hx, hy), cv::Point2d(-hx, hy)};
+  const std::array<Eigen::Vector2d, 4> model = top_corners_P(target);
   std::vector<cv::Point2d> src(4), raw(4), und;
   for (int k = 0; k < 4; ++k) {
-    src[k] = model[(k + placement) % 4];
+    src[k] = cv::Point2d(model[(k + placement) % 4].x(), model[(k + placement) % 4].y());
     raw[k] = cv::Point2d(q.corners[k].x(), q.corners[k].y());
   }
   if (cam.has_distortion()) {
@@ -203,9 +199,7 @@ std::vector<EllipseParams> platform_set_guesses(const PlatformQuad& q, int place
 
 double platform_corner_error_px(const PlatformQuad& q, const Eigen::Isometry3d& X_CP,
                                 const CameraModel& cam, const TargetGeometry& target) {
-  const double hx = 0.5 * target.platform_size_m.x(), hy = 0.5 * target.platform_size_m.y();
-  const std::array<Eigen::Vector2d, 4> model{Eigen::Vector2d(-hx, -hy), Eigen::Vector2d(hx, -hy),
-                                             Eigen::Vector2d(hx, hy), Eigen::Vector2d(-hx, hy)};
+  const std::array<Eigen::Vector2d, 4> model = top_corners_P(target);
   std::array<Eigen::Vector2d, 4> proj;
   for (int k = 0; k < 4; ++k) {
     const Eigen::Vector3d c = X_CP * Eigen::Vector3d(model[k].x(), model[k].y(), 0.0);
