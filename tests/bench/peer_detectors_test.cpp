@@ -145,6 +145,16 @@ TEST(PeerDetectors, SyntheticViewIsGeometricallyExact) {
   EXPECT_LT((d.X_CP.translation() - X.translation()).norm(), 1e-3 * X.translation().norm());
 }
 
+// Four views: 2.5 and 5 m, 0 and 30 deg, no blur, one yaw each.
+EstimatorBenchParams small_sweep() {
+  EstimatorBenchParams p;
+  p.altitudes_m = {2.5, 5.0};
+  p.tilts_deg = {0.0, 30.0};
+  p.blur_px = {0.0};
+  p.yaws_per_view = 1;
+  return p;
+}
+
 // Given the synthetic renderer and a small sweep, the benchmark harness writes every metric
 // key of issue 3 for every method, detects all near views and reports no false positive on
 // frames without the target.
@@ -154,11 +164,7 @@ TEST(EstimatorBench, SmallSyntheticSweepWritesAllKeys) {
   Eigen::Isometry3d X_WP = Eigen::Isometry3d::Identity();
   X_WP.translation() = Eigen::Vector3d(3.0, -2.0, 0.8);
   X_WP.linear() = Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  EstimatorBenchParams p;
-  p.altitudes_m = {2.5, 5.0};
-  p.tilts_deg = {0.0, 30.0};
-  p.blur_px = {0.0};
-  p.yaws_per_view = 1;
+  EstimatorBenchParams p = small_sweep();
   p.empty_frames = 4;
   const nlohmann::json j = test::parse_json(run_estimator_bench(
       make_synthetic_bench_renderer(g, cam, X_WP), X_WP, g, cam, VisionParams{}, p));
@@ -205,11 +211,7 @@ TEST(EstimatorBench, OnlyViewsAreTheWholeSweepsViewsOfThoseIndices) {
   const CameraModel cam;
   Eigen::Isometry3d X_WP = Eigen::Isometry3d::Identity();
   X_WP.translation() = Eigen::Vector3d(1.0, 2.0, 0.8);
-  EstimatorBenchParams p;
-  p.altitudes_m = {2.5, 5.0};
-  p.tilts_deg = {0.0, 30.0};
-  p.blur_px = {0.0};
-  p.yaws_per_view = 1;
+  EstimatorBenchParams p = small_sweep();
   p.empty_frames = 0;
   const auto renderer = make_synthetic_bench_renderer(g, cam, X_WP);
   const nlohmann::json all =
