@@ -499,6 +499,8 @@ FloorRun search_floor_run(double start_z_m, double believed_offset_m, bool clear
   cfg.platform.v_W_mps.setZero();
   cfg.start_W_m = Eigen::Vector3d(0.0, 0.0, start_z_m);
   cfg.max_time_s = 6.0;  // inside the in-place sweep (search_spiral_after_s = 8 s)
+  // The floor alone: the first search's climb (on by default) would lift every run anyway.
+  cfg.controller.landing.search_first_climb_rate_mps = 0.0;
   cfg.feed = [=](double t, const HexModel& m, LandingController& c) {
     AltitudeEstimate a = altitude_over_ground(t, m, believed_offset_m);
     if (clearance) a.clearance_m = m.p.z();  // the truth

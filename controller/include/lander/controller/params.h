@@ -322,14 +322,15 @@ struct LandingParams {
                                           ///< ~3 m half-footprint at 6 m for ~3 s of it
   double search_climb_rate_mps{0.3};      ///< ... and climbing at this rate for a wider view
                                           ///< (m/s), 0 = off
-  double search_first_climb_rate_mps{0.0};///< the first search with nothing to predict from
+  double search_first_climb_rate_mps{1.0};///< the first search with nothing to predict from
                                           ///< (no fix, no broadcast): climb from its start at
                                           ///< this rate (m/s) to search_max_height_m, while
                                           ///< the heading sweeps, instead of only with the
                                           ///< spiral at search_climb_rate_mps; 0 = off. From a
                                           ///< 6-8 m start the wide image axis reaches 6-8 m, and
                                           ///< a cart 5-10 m away driving off at ~1 m/s has left
-                                          ///< it before the first turn ends
+                                          ///< it before the first turn ends (on by default
+                                          ///< since the whole envelope ran with it: README)
   double search_max_height_m{10.0};       ///< ... up to this height above the platform top
                                           ///< (m): the view's narrow half-width grows from
                                           ///< ~3 m at 6 m to ~5.5 m, and the target is
