@@ -3,13 +3,13 @@
 // and 40-60 deg from the platform normal, every pose a pass reports must be right (position
 // and rotation against the truth), a frame the earlier passes detect must be detected the
 // same way, and target-free frames with ring-like decoys must stay empty.
-#include <gtest/gtest.h>
-
 #include <iostream>
-#include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
 #include "lander/estimator/vision_detector.h"
 #include "support/vision_synth.h"

@@ -95,12 +95,6 @@ bool supported_image(const cv::Mat& img) {
 // few tenths; 3x keeps a clear margin between them.
 constexpr double kThreeSetMinResidualRatio = 3.0;
 
-// The platform pass's pose must put the top's corners on its outline within the larger of
-// these (px, and a fraction of the outline's shortest side): the outline's corners are found
-// to about a pixel, while a wrong identity of the sets (a turn by 60 or 120 deg) moves them by
-// a third of the side or more.
-constexpr double kPlatformCornerMinGatePx = 2.0;
-constexpr double kPlatformCornerGateFraction = 0.1;
 // The platform pass's choice between the plane's two tilts (see finish() in run_region): the
 // other tilt must fit the conics worse by this factor and the outline's corners by this one.
 // On exactly drawn and rendered views at 15-20 m (sets 3-5 px across) the right tilt's
@@ -1388,11 +1382,7 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vect
           if (ok) {
             const double err =
                 vision_internal::platform_corner_error_px(q, dq.X_CP, camera_, target_);
-            double side = std::numeric_limits<double>::infinity();
-            for (int k = 0; k < 4; ++k)
-              side = std::min(side, (q.corners[k] - q.corners[(k + 1) % 4]).norm());
-            const double gate =
-                std::max(kPlatformCornerMinGatePx, kPlatformCornerGateFraction * side);
+            const double gate = vision_internal::platform_corner_gate_px(q);
             if (!(err <= gate)) {
               ok = false;
               std::ostringstream oc;

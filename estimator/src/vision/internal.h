@@ -82,6 +82,8 @@ struct PlatformGuesses {
 // the square's corners; only the hexagon's 180 deg turn keeps them).
 double platform_corner_error_px(const PlatformQuad& q, const Eigen::Isometry3d& X_CP,
                                 const CameraModel& cam, const TargetGeometry& target);
+// The largest corner error (platform_corner_error_px) a platform-pass pose may have on `q`.
+double platform_corner_gate_px(const PlatformQuad& q);
 
 // Stage 5b: Levenberg-Marquardt on the conic reprojection cost (seed 000 eq. 14-15).
 struct ConicObservation {

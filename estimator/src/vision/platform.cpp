@@ -37,6 +37,19 @@ constexpr double kSideBandPx = 2.0;
 constexpr double kSideEndFraction = 0.15;
 // Two quadrilaterals whose corners are all within this of each other are one (px).
 constexpr double kSameQuadPx = 3.0;
+// The pass's pose must put the top's corners on its outline within the larger of these (px,
+// and a fraction of the outline's shortest side): the outline's corners are found to about a
+// pixel, while a wrong identity of the sets (a turn by 60 or 120 deg) moves them by a third of
+// the side or more.
+constexpr double kCornerMinGatePx = 2.0;
+constexpr double kCornerGateFraction = 0.1;
+
+// The shortest side of a quadrilateral given by its corners in cyclic order (px).
+double shortest_side_px(const std::array<Eigen::Vector2d, 4>& corners) {
+  double side = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 4; ++k) side = std::min(side, (corners[k] - corners[(k + 1) % 4]).norm());
+  return side;
+}
 
 // The platform top's corners in P (m), in cyclic order.
 std::array<Eigen::Vector2d, 4> top_corners_P(const TargetGeometry& target) {
@@ -119,11 +132,7 @@ std::vector<PlatformQuad> platform_quads(const cv::Mat& grey, const VisionParams
       if (area < kMinSolidity * cv::contourArea(approx)) continue;
       const auto corners = refine_quad(c, approx);
       if (!corners) continue;
-      bool short_side = false;
-      for (int k = 0; k < 4; ++k) {
-        short_side |= ((*corners)[k] - (*corners)[(k + 1) % 4]).norm() < kMinSidePx;
-      }
-      if (short_side) continue;
+      if (shortest_side_px(*corners) < kMinSidePx) continue;
       bool dup = false;
       for (const auto& q : quads) {
         // The same top at the other level: corners in the same cyclic order, maybe shifted.
@@ -195,6 +204,10 @@ std::vector<EllipseParams> platform_set_guesses(const PlatformQuad& q, int place
     if (ring.centre_P_m.norm() < 1e-9) guess(ring.centre_P_m, ring.inner_radius_m);
   }
   return out;
+}
+
+double platform_corner_gate_px(const PlatformQuad& q) {
+  return std::max(kCornerMinGatePx, kCornerGateFraction * shortest_side_px(q.corners));
 }
 
 double platform_corner_error_px(const PlatformQuad& q, const Eigen::Isometry3d& X_CP,
