@@ -19,6 +19,14 @@ Eigen::Vector3d clamp_norm(const Eigen::Vector3d& v, double max_norm) {
   const double n = v.norm();
   return n > max_norm ? Eigen::Vector3d(v * (max_norm / n)) : v;
 }
+
+// The horizontal correction of the navigation velocity from one state to the next (the
+// change of NavState::v_corr_W_mps); zero if not finite.
+Eigen::Vector3d velocity_correction(const NavState& from, const NavState& to) {
+  Eigen::Vector3d dv = to.v_corr_W_mps - from.v_corr_W_mps;
+  dv.z() = 0.0;
+  return dv.allFinite() ? dv : Eigen::Vector3d::Zero();
+}
 }  // namespace
 
 PlatformTracker::PlatformTracker(const TrackerParams& params, const CameraMount& mount)
@@ -29,18 +37,39 @@ PlatformTracker::PlatformTracker(const TrackerParams& params, const CameraMount&
 void PlatformTracker::add_nav(const NavState& nav) {
   if (!nav.valid) return;
   if (!nav_.empty() && nav.t_s <= nav_.back().t_s) {
-    if (nav.t_s == nav_.back().t_s) nav_.back() = nav;
+    if (nav.t_s == nav_.back().t_s) {  // the same instant again, perhaps corrected at it
+      rebase_dead_reckoning(velocity_correction(nav_.back(), nav), nav.t_s);
+      nav_.back() = nav;
+    }
     return;  // out of order: ignore
   }
-  // Trapezoidal integral of the navigation velocity.
-  dr_.push_back(nav_.empty() ? Eigen::Vector3d::Zero()
-                             : Eigen::Vector3d(dr_.back() + 0.5 * (nav_.back().v_W_mps + nav.v_W_mps) *
-                                                                (nav.t_s - nav_.back().t_s)));
+  if (nav_.empty()) {
+    dr_.push_back(Eigen::Vector3d::Zero());
+    nav_.push_back(nav);
+    return;
+  }
+  // A correction of the navigation velocity since the last state, taken as made at its time.
+  const Eigen::Vector3d dv = velocity_correction(nav_.back(), nav);
+  rebase_dead_reckoning(dv, nav_.back().t_s);
+  // Trapezoidal integral of the navigation velocity (the last one corrected).
+  dr_.push_back(dr_.back() +
+                0.5 * (nav_.back().v_W_mps + dv + nav.v_W_mps) * (nav.t_s - nav_.back().t_s));
   nav_.push_back(nav);
   while (nav_.size() > 2 && nav_.front().t_s < nav.t_s - p_.nav_history_s) {
     nav_.pop_front();
     dr_.pop_front();
   }
+}
+
+void PlatformTracker::rebase_dead_reckoning(const Eigen::Vector3d& dv, double t_g) {
+  if (dv.isZero(0.0)) return;
+  for (std::size_t i = 0; i < dr_.size(); ++i) dr_[i] += dv * (nav_[i].t_s - t_g);
+  for (PlatformFix& f : fixes_) f.p_dr_m += dv * (f.t_s - t_g);
+  if (!kf_init_) return;
+  kf_x_.row(0) += (dv * (kf_t_ - t_g)).transpose();
+  kf_x_.row(1) += dv.transpose();
+  ca_x_.row(0) += (dv * (ca_t_ - t_g)).transpose();
+  ca_x_.row(1) += dv.transpose();
 }
 
 bool PlatformTracker::bracket(double t_s, const char* who, std::size_t* lo, double* u) const {

@@ -198,5 +198,59 @@ TEST(Navigation, FirstFixAfterDropOutSetsTheVelocity) {
   EXPECT_NEAR(nav.state().v_W_mps.x(), 0.0, 0.05);
 }
 
+// NavState::v_corr_W_mps sums the steps the fixes make in the velocity and nothing else: the
+// IMU's integration leaves it alone, each fix (also the velocity taken after a drop-out) adds
+// its horizontal change of v_W_mps, and its z stays 0. The platform tracker moves its
+// dead-reckoned history by its changes, so a missed or wrong sum would reach the landing.
+TEST(Navigation, VelocityCorrectionsAreSummedHorizontallyInVCorr) {
+  Navigation nav(NavigationParams{});
+  int fixes_seen = 0;
+  double largest_step = 0.0, smallest_step = 1e9;
+  for (int k = 0; k <= 250 * 12; ++k) {
+    const double t = k * 0.004;
+    ImuSample s = imu_at(t, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero());
+    // A drop-out at 5-8 s in which the accelerometer reads a horizontal acceleration the
+    // fixes do not have (the coasted velocity ends ~3.4 m/s off, as in
+    // FirstFixAfterDropOutSetsTheVelocity).
+    const bool gap = t >= 5.0 && t < 8.0;
+    if (gap) {
+      s.accel_B_mps2.x() += 1.0;
+      s.accel_B_mps2.y() -= 0.5;
+    }
+    const NavState before_imu = nav.state();
+    nav.add_imu(s);
+    if (before_imu.valid) {
+      // Exact: the IMU step does not touch the sum.
+      EXPECT_EQ(nav.state().v_corr_W_mps, before_imu.v_corr_W_mps) << "t " << t;
+    }
+    if (k % 50 != 0 || gap) continue;
+    const NavState before = nav.state();
+    // The fixes' velocities alternate by +-5 cm/s (receiver noise), so every update steps.
+    const double noise = (k / 50) % 2 == 0 ? 0.05 : -0.05;
+    ASSERT_TRUE(nav.add_gps(fix_at(t, Eigen::Vector3d(0, 0, 10), Eigen::Vector3d(noise, -noise, 0.0))));
+    const NavState after = nav.state();
+    if (!before.valid) {  // the first fix initialises the velocity: not a correction
+      EXPECT_EQ(after.v_corr_W_mps, Eigen::Vector3d::Zero());
+      continue;
+    }
+    ++fixes_seen;
+    const Eigen::Vector3d step = after.v_W_mps - before.v_W_mps;
+    const Eigen::Vector3d corr = after.v_corr_W_mps - before.v_corr_W_mps;
+    // The same sum of the same doubles up to their rounding (1e-12 m/s).
+    constexpr double kRounding_mps = 1e-12;
+    EXPECT_NEAR(corr.x(), step.x(), kRounding_mps) << "t " << t;
+    EXPECT_NEAR(corr.y(), step.y(), kRounding_mps) << "t " << t;
+    EXPECT_EQ(after.v_corr_W_mps.z(), 0.0);
+    largest_step = std::max(largest_step, step.head<2>().norm());
+    if (t < 5.0) smallest_step = std::min(smallest_step, step.head<2>().norm());
+  }
+  EXPECT_GT(fixes_seen, 40);
+  EXPECT_EQ(nav.velocity_resets(), 1);
+  // Every ordinary fix moved the velocity (the sum is not trivially zero) ...
+  EXPECT_GT(smallest_step, 1e-4);
+  // ... and the fix after the drop-out took the velocity from the fix: ~3.4 m/s undone at once.
+  EXPECT_GT(largest_step, 2.0);
+}
+
 }  // namespace
 }  // namespace lander

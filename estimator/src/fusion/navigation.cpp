@@ -211,6 +211,7 @@ bool Navigation::add_gps(const GpsSample& gps) {
     return true;
   }
   const double a = std::max(0.0, age);
+  const Eigen::Vector3d vel_before = vel_;
   if (resumed_after_gap && pos_init_) {
     // Fixes are back after a gap: the velocity is taken from the fix, as at the first fix.
     // Coasting on the accelerometer may have drifted by more than the residual gate (eq. 27),
@@ -250,6 +251,7 @@ bool Navigation::add_gps(const GpsSample& gps) {
     vel_[i] = x[1];
     b_a_[i] = x[2];
   }
+  v_corr_.head<2>() += (vel_ - vel_before).head<2>();
   return true;
 }
 
@@ -260,6 +262,7 @@ NavState Navigation::state() const {
   s.q_WB = q_WB_;
   s.p_W_m = pos_;
   s.v_W_mps = vel_;
+  s.v_corr_W_mps = v_corr_;
   s.omega_B_radps = omega_B_;
   return s;
 }

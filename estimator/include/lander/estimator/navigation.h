@@ -161,6 +161,7 @@ class Navigation {
   double t_gps_arrival_s_{-1.0};   // IMU time at which it arrived
   double t_init_s_{0.0};           // time of the first IMU sample
   int velocity_resets_{0};         // velocity taken from a fix after a gap
+  Eigen::Vector3d v_corr_{Eigen::Vector3d::Zero()};  // NavState::v_corr_W_mps
   double gps_interval_s_{1.0};     // sample interval of the last two fixes
   bool have_a_gps_{false};
   Eigen::Vector3d f_W_lp_{0.0, 0.0, 9.81};  // LP of R^ f_B

@@ -16,6 +16,12 @@ struct NavState {
   Eigen::Vector3d p_W_m{Eigen::Vector3d::Zero()};            ///< position of B in W (m)
   Eigen::Vector3d v_W_mps{Eigen::Vector3d::Zero()};          ///< velocity of B in W (m/s)
   Eigen::Vector3d omega_B_radps{Eigen::Vector3d::Zero()};    ///< body rates, bias-corrected
+  /// The sum of the steps the GPS corrections (and the velocity taken from a fix after a
+  /// drop-out) have made in v_W_mps since the first fix, horizontal only (z is 0: the vertical
+  /// comes from the altitude fusion). Between two states its change is the correction made
+  /// in between: the part of v_W_mps's change that is not the vehicle's acceleration. The
+  /// platform tracker moves its dead-reckoned history by it (PlatformTracker::add_nav).
+  Eigen::Vector3d v_corr_W_mps{Eigen::Vector3d::Zero()};
 };
 
 // Fused altitude (seed 004 section 4): height of B in W and above the surface below.
