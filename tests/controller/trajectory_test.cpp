@@ -57,6 +57,22 @@ TEST(PolynomialFit3, RejectsTooFewSamples) {
                std::invalid_argument);
 }
 
+// The keyframe noise-free vision makes at t of a platform at p_WP seen from a vehicle at
+// p_WB (level, yaw 0).
+PlatformObservation keyframe_at(double t, const Eigen::Vector3d& p_WB, const Eigen::Vector3d& p_WP,
+                                const CameraMount& mount) {
+  Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
+  X_WB.translation() = p_WB;
+  Eigen::Isometry3d X_WP = Eigen::Isometry3d::Identity();
+  X_WP.translation() = p_WP;
+  PlatformObservation obs;
+  obs.t_s = t;
+  obs.detected = true;
+  obs.keyframe = true;
+  obs.X_CP = (X_WB * mount.X_BC()).inverse() * X_WP;
+  return obs;
+}
+
 // Platform tracker on a synthetic stream: camera straight down over a moving platform.
 // nav: vehicle at height h above the platform, level, camera looking down.
 struct Stream {
@@ -78,15 +94,7 @@ struct Stream {
     t_prev = t;
     p_prev = p_WB;
     tracker.add_nav(nav);
-    Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
-    X_WB.translation() = p_WB;
-    Eigen::Isometry3d X_WP = Eigen::Isometry3d::Identity();
-    X_WP.translation() = p_WP;
-    PlatformObservation obs;
-    obs.t_s = t;
-    obs.detected = true;
-    obs.keyframe = true;
-    obs.X_CP = (X_WB * mount.X_BC()).inverse() * X_WP;
+    PlatformObservation obs = keyframe_at(t, p_WB, p_WP, mount);
     std::normal_distribution<double> n(0.0, noise_m);
     // z drawn first, x last: the order GCC evaluated the former Vector3d(n(rng), ...)
     // arguments in (unspecified in C++; clang differs), the same noise with either compiler.
@@ -186,15 +194,7 @@ TEST(PlatformTracker, NavigationPositionStepsDoNotReachVelocityOrRelativeVector)
     nav.v_W_mps = v_B;
     tracker.add_nav(nav);
     if (i % 8 != 0) continue;
-    Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
-    X_WB.translation() = p_WB;
-    Eigen::Isometry3d X_WP = Eigen::Isometry3d::Identity();
-    X_WP.translation() = Eigen::Vector3d(0.0, 0.0, 0.8) + v_P * t;
-    PlatformObservation obs;
-    obs.t_s = t;
-    obs.detected = obs.keyframe = true;
-    obs.X_CP = (X_WB * mount.X_BC()).inverse() * X_WP;  // noise-free vision
-    tracker.add_observation(obs);
+    tracker.add_observation(keyframe_at(t, p_WB, Eigen::Vector3d(0.0, 0.0, 0.8) + v_P * t, mount));
   }
   // Noise-free fixes on a constant-velocity platform: the filter has converged to the true
   // velocity within 1 cm/s (the steps alone made ~0.3 m/s of the position fit's slope).
@@ -266,15 +266,8 @@ RelativeVelocityError relative_velocity_error(bool tell_corrections) {
     if (tell_corrections) nav.v_corr_W_mps = v_corr;
     tracker.add_nav(nav);
     if (i % 8 == 0) {
-      Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
-      X_WB.translation() = p_WB;
-      Eigen::Isometry3d X_WP = Eigen::Isometry3d::Identity();
-      X_WP.translation() = Eigen::Vector3d(0.0, 0.0, 0.1) + v_P * t;
-      PlatformObservation obs;
-      obs.t_s = t;
-      obs.detected = obs.keyframe = true;
-      obs.X_CP = (X_WB * mount.X_BC()).inverse() * X_WP;  // noise-free vision
-      tracker.add_observation(obs);
+      tracker.add_observation(
+          keyframe_at(t, p_WB, Eigen::Vector3d(0.0, 0.0, 0.1) + v_P * t, mount));
     }
     if (t < 2.0) continue;  // the filter's start
     const double e = ((tracker.velocity() - nav.v_W_mps) - (v_P - v_B)).head<2>().norm();
@@ -290,8 +283,9 @@ RelativeVelocityError relative_velocity_error(bool tell_corrections) {
 TEST(PlatformTracker, NavigationVelocityCorrectionsReachTheRelativeVelocityAtOnce) {
   const RelativeVelocityError told = relative_velocity_error(true);
   const RelativeVelocityError untold = relative_velocity_error(false);
-  std::printf("relative velocity error: told worst %.4f rms %.4f m/s, untold worst %.4f rms %.4f m/s\n",
-              told.worst_mps, told.rms_mps, untold.worst_mps, untold.rms_mps);
+  std::printf(
+      "relative velocity error: told worst %.4f rms %.4f m/s, untold worst %.4f rms %.4f m/s\n",
+      told.worst_mps, told.rms_mps, untold.worst_mps, untold.rms_mps);
   // Told, what is left is the filter's lag behind the drift: worst in the drop-out, whose
   // 0.4 m/s^2 the constant-velocity filter trails by ~0.15 s (~0.06 m/s; untold the same);
   // with fixes the 0.05 m/s^2 drift leaves under a centimetre a second, and 0.02 m/s bounds

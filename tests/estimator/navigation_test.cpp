@@ -227,7 +227,8 @@ TEST(Navigation, VelocityCorrectionsAreSummedHorizontallyInVCorr) {
     const NavState before = nav.state();
     // The fixes' velocities alternate by +-5 cm/s (receiver noise), so every update steps.
     const double noise = (k / 50) % 2 == 0 ? 0.05 : -0.05;
-    ASSERT_TRUE(nav.add_gps(fix_at(t, Eigen::Vector3d(0, 0, 10), Eigen::Vector3d(noise, -noise, 0.0))));
+    ASSERT_TRUE(
+        nav.add_gps(fix_at(t, Eigen::Vector3d(0, 0, 10), Eigen::Vector3d(noise, -noise, 0.0))));
     const NavState after = nav.state();
     if (!before.valid) {  // the first fix initialises the velocity: not a correction
       EXPECT_EQ(after.v_corr_W_mps, Eigen::Vector3d::Zero());
