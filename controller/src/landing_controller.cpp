@@ -70,6 +70,12 @@ constexpr double kFirstClimbDelay_s = 0.3;
 
 }  // namespace
 
+double accel_feed_forward_share(double a_mps2, double deadband_mps2, double full_mps2) {
+  if (!(a_mps2 > deadband_mps2)) return 0.0;
+  if (a_mps2 >= full_mps2) return 1.0;
+  return (a_mps2 - deadband_mps2) / (full_mps2 - deadband_mps2);
+}
+
 const char* to_string(Mode m) {
   switch (m) {
     case Mode::kSearch: return "search";
@@ -988,7 +994,8 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       // and added to the setpoint; it removes the bias of the lagging velocity feed-forward
       // on curved or accelerating cart paths.
       const Eigen::Vector2d e_vec = diag_.platform_W_m.head<2>() - nav.p_W_m.head<2>();
-      if (e_xy < L.descent_gate_m) {
+      if (e_xy < L.descent_gate_m &&
+          tracker_.acceleration().head<2>().norm() < L.servo_int_max_platform_accel_mps2) {
         servo_int_ += L.servo_ki * e_vec * dt;
         const double n = servo_int_.norm();
         if (n > L.servo_max_correction_m) servo_int_ *= L.servo_max_correction_m / n;
@@ -1018,12 +1025,12 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       // navigation position's GPS steps) is noisy: fed forward whole at a constant cart speed
       // it landed about 1 cm wider.
       if (L.platform_accel_ff_gain > 0.0 && fresh) {
-        // Soft deadband: |a| reduced by platform_accel_ff_deadband_mps2, the direction kept.
-        Eigen::Vector2d a = tracker_.acceleration().head<2>();
-        const double a_norm = a.norm();
-        const double db = L.platform_accel_ff_deadband_mps2;
-        a = a_norm > db ? Eigen::Vector2d(a * ((a_norm - db) / a_norm)) : Eigen::Vector2d::Zero();
-        sp.a_W_mps2.head<2>() = L.platform_accel_ff_gain * a;
+        // Nothing below platform_accel_ff_deadband_mps2, all from platform_accel_ff_full_mps2
+        // on, a share rising linearly between them; the direction kept.
+        const Eigen::Vector2d a = tracker_.acceleration().head<2>();
+        const double share = accel_feed_forward_share(a.norm(), L.platform_accel_ff_deadband_mps2,
+                                                      L.platform_accel_ff_full_mps2);
+        sp.a_W_mps2.head<2>() = L.platform_accel_ff_gain * share * a;
       }
       return sp;
     }

@@ -116,9 +116,13 @@ void LandingParams::validate() const {
   require(recovery_max_carrot_m > 0, "recovery_max_carrot_m", "must be > 0");
   require(servo_ki >= 0, "servo_ki", "must be >= 0");
   require(servo_max_correction_m >= 0, "servo_max_correction_m", "must be >= 0");
+  require(servo_int_max_platform_accel_mps2 >= 0, "servo_int_max_platform_accel_mps2",
+          "must be >= 0");
   require(platform_accel_ff_gain >= 0 && platform_accel_ff_gain <= 1, "platform_accel_ff_gain",
           "must be in [0, 1]");
   require(platform_accel_ff_deadband_mps2 >= 0, "platform_accel_ff_deadband_mps2", "must be >= 0");
+  require(platform_accel_ff_full_mps2 >= platform_accel_ff_deadband_mps2,
+          "platform_accel_ff_full_mps2", "must be >= platform_accel_ff_deadband_mps2");
   require(gear_height_m >= 0, "gear_height_m", "must be >= 0");
   require(cut_height_m > 0, "cut_height_m", "must be > 0");
   require(touchdown_error_m > 0, "touchdown_error_m", "must be > 0");

@@ -156,5 +156,27 @@ TEST(PlatformTracker, SteadinessRejectsATiltingPlatform) {
   EXPECT_TRUE(tracker.steady(0.5, 8.0, 10.0, &why)) << why;
 }
 
+// The acceleration feed-forward's share: nothing up to the deadband (the estimate's noise at
+// a constant cart speed), all from `full` on (a cart's 0.6 m/s^2 start passes whole, not
+// reduced by the deadband), linear between; with full == deadband a hard step. Closed form:
+// exact but for round-off.
+TEST(LandingController, AccelerationFeedForwardShareRampsFromTheDeadbandToFull) {
+  constexpr double kTol = 1e-12;
+  EXPECT_EQ(accel_feed_forward_share(0.0, 0.1, 0.3), 0.0);
+  EXPECT_EQ(accel_feed_forward_share(0.1, 0.1, 0.3), 0.0);
+  EXPECT_NEAR(accel_feed_forward_share(0.15, 0.1, 0.3), 0.25, kTol);
+  EXPECT_NEAR(accel_feed_forward_share(0.2, 0.1, 0.3), 0.5, kTol);
+  EXPECT_EQ(accel_feed_forward_share(0.3, 0.1, 0.3), 1.0);
+  EXPECT_EQ(accel_feed_forward_share(0.6, 0.1, 0.3), 1.0);
+  // Continuous at both ends of the ramp.
+  EXPECT_NEAR(accel_feed_forward_share(0.1 + 1e-9, 0.1, 0.3), 0.0, 1e-8);
+  EXPECT_NEAR(accel_feed_forward_share(0.3 - 1e-9, 0.1, 0.3), 1.0, 1e-8);
+  // A hard step when full equals the deadband.
+  EXPECT_EQ(accel_feed_forward_share(0.2, 0.2, 0.2), 0.0);
+  EXPECT_EQ(accel_feed_forward_share(0.2 + 1e-9, 0.2, 0.2), 1.0);
+  // A non-finite magnitude feeds nothing forward.
+  EXPECT_EQ(accel_feed_forward_share(std::numeric_limits<double>::quiet_NaN(), 0.1, 0.3), 0.0);
+}
+
 }  // namespace
 }  // namespace lander::ctl

@@ -55,6 +55,12 @@ enum class Mode {
 // Lower-case name ("search", "observe", ...), as written into summary.json.
 const char* to_string(Mode m);
 
+// Share of the platform's estimated acceleration (magnitude a_mps2) that the visual servo
+// feeds forward: 0 up to deadband_mps2 (the estimate's noise at a constant cart speed),
+// 1 from full_mps2 on (a cart's start or stop passes whole), linear between; a hard step at
+// deadband_mps2 when full_mps2 <= deadband_mps2.
+double accel_feed_forward_share(double a_mps2, double deadband_mps2, double full_mps2);
+
 struct ModeTransition {
   double t_s{0.0};  ///< time of the switch (s)
   Mode from{Mode::kSearch};

@@ -244,16 +244,22 @@ struct LandingParams {
                                           ///< 0.6 wound up to -0.15 m while a stop-and-go cart
                                           ///< braked and then held the vehicle behind it
   double servo_max_correction_m{0.15};    ///< bound of that integral correction (m)
+  /// The integral learns only while the platform's estimated acceleration is below this
+  /// (m/s^2): a cart's start or stop is a transient the acceleration feed-forward meets, not a
+  /// bias (README, "Starts and stops fed forward whole").
+  double servo_int_max_platform_accel_mps2{0.2};
   double platform_accel_ff_gain{1.0};     ///< share of the platform's estimated acceleration
                                           ///< (PlatformTracker::acceleration()) the visual
                                           ///< servo feeds forward, in [0, 1]; 0 = off (on by
                                           ///< default since 2026-11-28: README, "The
                                           ///< acceleration feed-forward by default")
-  double platform_accel_ff_deadband_mps2{0.2};  ///< that acceleration's magnitude is reduced
-                                          ///< by this much before it is fed forward (soft
-                                          ///< deadband, m/s^2): the estimate's noise at a
-                                          ///< constant speed stays out, a cart's starts and
-                                          ///< stops (~0.6) pass
+  /// Below this magnitude nothing of that acceleration is fed forward (m/s^2): the
+  /// estimate's noise at a constant speed stays out.
+  double platform_accel_ff_deadband_mps2{0.1};
+  /// From this magnitude on it is fed forward whole, between the two a share rising linearly
+  /// from 0 to 1 (m/s^2, >= the deadband; accel_feed_forward_share), so a cart's starts and
+  /// stops (~0.6) pass whole.
+  double platform_accel_ff_full_mps2{0.3};
   // touchdown (seed 000 section 3.3: < 5 cm and steady platform)
   double gear_height_m{0.25};             ///< CoM height above the surface when landed (m):
                                           ///< models/hexarotor.xml skids at -0.24 m, r 0.01 m
@@ -446,8 +452,10 @@ void visit_fields(V& v, LandingParams& p) {
   v("recovery_max_carrot_m", p.recovery_max_carrot_m);
   v("servo_ki", p.servo_ki);
   v("servo_max_correction_m", p.servo_max_correction_m);
+  v("servo_int_max_platform_accel_mps2", p.servo_int_max_platform_accel_mps2);
   v("platform_accel_ff_gain", p.platform_accel_ff_gain);
   v("platform_accel_ff_deadband_mps2", p.platform_accel_ff_deadband_mps2);
+  v("platform_accel_ff_full_mps2", p.platform_accel_ff_full_mps2);
   v("gear_height_m", p.gear_height_m);
   v("cut_height_m", p.cut_height_m);
   v("touchdown_error_m", p.touchdown_error_m);
