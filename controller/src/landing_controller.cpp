@@ -993,9 +993,11 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
       // is integrated (only once roughly aligned, so the entry transient does not wind it up)
       // and added to the setpoint; it removes the bias of the lagging velocity feed-forward
       // on curved or accelerating cart paths.
+      // It learns only while the platform is not accelerating: a cart's start or stop is a
+      // transient the acceleration feed-forward below meets, not a bias.
       const Eigen::Vector2d e_vec = diag_.platform_W_m.head<2>() - nav.p_W_m.head<2>();
-      if (e_xy < L.descent_gate_m &&
-          tracker_.acceleration().head<2>().norm() < L.servo_int_max_platform_accel_mps2) {
+      const Eigen::Vector2d a_plat = tracker_.acceleration().head<2>();
+      if (e_xy < L.descent_gate_m && a_plat.norm() < L.servo_int_max_platform_accel_mps2) {
         servo_int_ += L.servo_ki * e_vec * dt;
         const double n = servo_int_.norm();
         if (n > L.servo_max_correction_m) servo_int_ *= L.servo_max_correction_m / n;
@@ -1020,17 +1022,14 @@ Setpoint LandingController::run_mode_machine(double t_s, const NavState& nav) {
                                    platform_vz_lp_ + vz_ff);
       // The platform's horizontal acceleration fed forward (platform_accel_ff_gain, on by
       // default): a stop-and-go cart's 0.6 m/s^2 is otherwise met only by the velocity loop,
-      // ~0.35 s behind the cart: 10-20 cm of error at every start and stop. Behind a soft
-      // deadband, because the raw acceleration of the fit (from fixes that carry the
-      // navigation position's GPS steps) is noisy: fed forward whole at a constant cart speed
-      // it landed about 1 cm wider.
+      // ~0.35 s behind the cart: 10-20 cm of error at every start and stop. Nothing of it below
+      // platform_accel_ff_deadband_mps2, because the raw acceleration of the fit is noisy (fed
+      // forward whole at a constant cart speed it landed about 1 cm wider), all of it from
+      // platform_accel_ff_full_mps2 on, a share rising linearly between; the direction kept.
       if (L.platform_accel_ff_gain > 0.0 && fresh) {
-        // Nothing below platform_accel_ff_deadband_mps2, all from platform_accel_ff_full_mps2
-        // on, a share rising linearly between them; the direction kept.
-        const Eigen::Vector2d a = tracker_.acceleration().head<2>();
-        const double share = accel_feed_forward_share(a.norm(), L.platform_accel_ff_deadband_mps2,
-                                                      L.platform_accel_ff_full_mps2);
-        sp.a_W_mps2.head<2>() = L.platform_accel_ff_gain * share * a;
+        const double share = accel_feed_forward_share(
+            a_plat.norm(), L.platform_accel_ff_deadband_mps2, L.platform_accel_ff_full_mps2);
+        sp.a_W_mps2.head<2>() = L.platform_accel_ff_gain * share * a_plat;
       }
       return sp;
     }

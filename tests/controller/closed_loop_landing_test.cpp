@@ -144,15 +144,22 @@ constexpr double kFeedForwardRecoveryRatio = 0.6;
 // Below this gear clearance the error is the landing's (recovery's final metre).
 constexpr double kFinalMetre_m = 1.0;
 
+// Behind a 1.2 m/s stop-and-go cart (0.6 m/s^2 starts and stops, 3 s going, 2 s standing),
+// the vehicle 3 m behind and 6 m up: the cart of the feed-forward and servo-integral tests.
+LandingRunConfig stop_and_go_recovery_config() {
+  LandingRunConfig cfg = moving_platform_config();
+  cfg.start_W_m = Eigen::Vector3d(-3.0, 0.0, 6.0);
+  cfg.platform.path = stop_and_go_path(1.2, 0.6, 3.0, 2.0);
+  return cfg;
+}
+
 TEST(ClosedLoopLanding, AccelerationFeedForwardClosesTheErrorBehindAStopAndGoCart) {
   struct Flight {
     double rms_m{std::nan("")}, recovery_s{std::nan("")};
     LandingRunResult r;
   };
   auto fly = [](std::optional<double> gain) {
-    LandingRunConfig cfg = moving_platform_config();
-    cfg.start_W_m = Eigen::Vector3d(-3.0, 0.0, 6.0);
-    cfg.platform.path = stop_and_go_path(1.2, 0.6, 3.0, 2.0);
+    LandingRunConfig cfg = stop_and_go_recovery_config();
     if (gain) cfg.controller.landing.platform_accel_ff_gain = *gain;  // else the default
     double sum = 0.0;
     int n = 0;
@@ -200,9 +207,7 @@ struct IntegralSteps {
 };
 
 IntegralSteps integral_steps(double limit_mps2) {
-  LandingRunConfig cfg = moving_platform_config();
-  cfg.start_W_m = Eigen::Vector3d(-3.0, 0.0, 6.0);
-  cfg.platform.path = stop_and_go_path(1.2, 0.6, 3.0, 2.0);
+  LandingRunConfig cfg = stop_and_go_recovery_config();
   cfg.controller.landing.servo_int_max_platform_accel_mps2 = limit_mps2;
   const double hold_limit = LandingParams{}.servo_int_max_platform_accel_mps2;
   const double carrot = cfg.controller.landing.recovery_max_carrot_m;
