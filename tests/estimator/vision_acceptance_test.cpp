@@ -3,6 +3,10 @@
 // with the target's extent in the image by max_reproj_fraction). Grazing views
 // from far away, where the ellipses are a few pixels across and a small outer ring can pass
 // for the centre ring, are where a source without the gate reported a pose 115 deg off.
+#include <iostream>
+#include <string>
+#include <vector>
+
 #include <gtest/gtest.h>
 
 #include "lander/estimator/vision_detector.h"
@@ -59,6 +63,104 @@ TEST(VisionAcceptance, NoReportedPoseExceedsTheReprojectionGate) {
   }
   EXPECT_EQ(views, 72);
   EXPECT_GT(detected, 0);  // the sweep is not all misses: the gate was exercised
+}
+
+// The plane's two tilts under an uneven light. At 10-14 m and 20-40 deg from the normal the
+// two poses IPPE gives for the centres (the normal tilted either way about the line of sight)
+// reproject them within a pixel of each other; a light falling across the target to 30 % moves
+// the central set's fitted centre by 1-2 px, and the centres alone then chose the mirrored tilt
+// (independent ray-traced frames: 3 of 44 poses 44-75 deg off, within the reprojection gate).
+// The conics tell the tilts apart (the right one fitted them 1.7-3.3 times better there).
+TEST(VisionAcceptance, AnUnevenLightDoesNotFlipThePlaneTilt) {
+  const TargetGeometry& g = test::default_target();
+  const CameraModel cam;
+  const VisionParams params;
+  int detected = 0, views = 0, other_tilt = 0;
+  for (double alt : {10.0, 12.0, 14.0}) {
+    for (double tilt : {20.0, 30.0, 40.0}) {
+      for (double light_deg : {0.0, 75.0, 150.0, 225.0, 300.0}) {
+        const double yaw = 40.0 + 7.0 * views, azimuth = 110.0 + 53.0 * views;
+        const Eigen::Isometry3d X_CP = test::look_at_pose(alt, tilt, yaw, azimuth);
+        test::SynthOptions opt;
+        opt.supersample = 2;
+        opt.noise_sigma = 1.0;
+        opt.seed = static_cast<std::uint64_t>(views + 1);
+        opt.light_ramp = {light_deg, 0.9, 0.3};
+        const RingDetection d =
+            detect_ring_target(test::render_view(g, cam, X_CP, opt), cam, g, params);
+        ++views;
+        if (!d.detected) continue;
+        ++detected;
+        other_tilt += d.reason.find("other tilt") != std::string::npos;
+        const double range = X_CP.translation().norm();
+        const double rot_deg =
+            Eigen::AngleAxisd(d.X_CP.linear() * X_CP.linear().transpose()).angle() * 180.0 / M_PI;
+        EXPECT_LE((d.X_CP.translation() - X_CP.translation()).norm(), kMaxRangeError * range)
+            << "alt " << alt << " tilt " << tilt << " light " << light_deg << ": " << d.reason;
+        EXPECT_LE(rot_deg, kMaxRotationErrorDeg)
+            << "alt " << alt << " tilt " << tilt << " light " << light_deg << ": " << d.reason;
+      }
+    }
+  }
+  std::cout << "uneven light: " << detected << " of " << views << " detected, " << other_tilt
+            << " with the closed form's other tilt\n";
+  EXPECT_EQ(views, 45);
+  // These views are plain for the detector (all seven sets 9-25 px across): a fix that refused
+  // the frames instead of choosing the right tilt would fail here.
+  EXPECT_GE(detected, 40);
+}
+
+// A pose must show the camera in front of the target's top. A platform misprinted with ring
+// sets 3 and 5 swapped and sets 2 and 6 missing shows the believed layout mirrored about P's x
+// axis (sets 0, 1 and 4 lie on it): a planar fit matches it exactly from behind the top (an
+// independent ray-traced frame at 14.8 m, where noise made sets 3 and 5 read as each other,
+// gave that pose, 180 deg off, with 0.05 px of reprojection error). From the front no pose
+// fits, so nothing may be reported, or, where the layout identification places the sets by
+// their positions alone, the true pose.
+// The layout identification's pose of the misprinted target fits the swapped sets' inner
+// circles with the believed radii, which tilts it by a few degrees (5.5 deg seen at 14 m,
+// looking straight down); a mirrored or turned pose is 60-180 deg off.
+constexpr double kMisprintMaxRotationErrorDeg = 10.0;
+
+TEST(VisionAcceptance, NoPosePutsTheCameraBehindTheTarget) {
+  const TargetGeometry& g = test::default_target();
+  TargetGeometry printed = g;
+  std::vector<RingSet> kept;
+  for (RingSet r : printed.rings) {
+    if (r.id == 2 || r.id == 6) continue;
+    if (r.id == 3) r.inner_radius_m = g.ring(5).inner_radius_m;
+    if (r.id == 5) r.inner_radius_m = g.ring(3).inner_radius_m;
+    kept.push_back(r);
+  }
+  printed.rings = kept;
+  const TargetGeometry seen = g;  // a distinct object: its texture is the misprinted one
+  test::set_texture_override(seen, render_target_texture(printed));
+  const CameraModel cam;
+  const VisionParams params;
+  int views = 0, detected = 0;
+  for (double alt : {3.0, 8.0, 14.0}) {
+    for (double tilt : {0.0, 25.0, 50.0}) {
+      for (double yaw : {10.0, 130.0}) {
+        const Eigen::Isometry3d X_CP = test::look_at_pose(alt, tilt, yaw, 35.0 + yaw);
+        test::SynthOptions opt;
+        opt.supersample = 2;
+        const RingDetection d =
+            detect_ring_target(test::render_view(seen, cam, X_CP, opt), cam, g, params);
+        ++views;
+        if (!d.detected) continue;
+        ++detected;
+        const Eigen::Vector3d t = d.X_CP.translation();
+        EXPECT_LT(d.X_CP.linear().col(2).dot(t), 0.0)
+            << "alt " << alt << " tilt " << tilt << ": the camera behind the top; " << d.reason;
+        const double rot_deg =
+            Eigen::AngleAxisd(d.X_CP.linear() * X_CP.linear().transpose()).angle() * 180.0 / M_PI;
+        EXPECT_LE(rot_deg, kMisprintMaxRotationErrorDeg)
+            << "alt " << alt << " tilt " << tilt << ": " << d.reason;
+      }
+    }
+  }
+  std::cout << "misprinted target: " << detected << " of " << views << " views gave a pose\n";
+  EXPECT_EQ(views, 18);
 }
 
 }  // namespace

@@ -113,6 +113,16 @@ constexpr double kPhotoMaxRmsFraction = 0.25;
 
 bool poses_agree(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const VisionParams& p);
 
+// The target's marked side faces the camera: the camera is in front of the platform's top
+// (P's z axis, out of the top, points towards it). A pose with the camera behind the top
+// cannot show the pattern, yet a planar fit admits one: two ring sets that swap identities
+// mirror the layout, and the mirrored layout seen from behind fits it exactly (an independent
+// ray-traced frame at 14.8 m with 11 grey levels of noise: sets 3 and 5 read as each other,
+// the pose 180 deg off with 0.05 px of reprojection error).
+bool faces_camera(const Eigen::Isometry3d& X_CP) {
+  return X_CP.translation().z() > 0 && X_CP.linear().col(2).dot(X_CP.translation()) < 0;
+}
+
 // 8-bit grey frame in which at least `region` is converted: 8-bit grey input is used as is;
 // otherwise only `region` of a per-thread full-size buffer is converted (tracking then pays
 // for the ROI only).
@@ -341,8 +351,8 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
   auto centre_gate = [&](const std::vector<int>& set) {
     return vision_internal::scaled_gate(p.max_centre_reproj_px, p.max_centre_reproj_fraction, extent_of(set));
   };
-  // IPPE on the identified centres `set`: the solution in front with the smallest largest
-  // centre reprojection error; none if no solution is in front.
+  // IPPE on the identified centres `set`: the solution facing the camera (faces_camera) with
+  // the smallest largest centre reprojection error; none if no solution faces it.
   struct Fit {
     Eigen::Isometry3d X;
     double max_err;
@@ -378,13 +388,13 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
       // closed form's (under a 2 % pixel aspect error 23 px at 1 m against ~5 px refined);
       // the refinement is kept only where it lowers that largest error.
       Eigen::Isometry3d X = pose_from_cv(rvecs[s], tvecs[s]);
-      if (X.translation().z() <= 0) continue;
+      if (!faces_camera(X)) continue;
       double mx = max_err(X);
       try {
         cv::Mat rv = rvecs[s].clone(), tv = tvecs[s].clone();
         cv::solvePnPRefineLM(obj, img, Kcv, cv::noArray(), rv, tv);
         const Eigen::Isometry3d Xr = pose_from_cv(rv, tv);
-        const double mr = Xr.translation().z() > 0 ? max_err(Xr) : std::numeric_limits<double>::infinity();
+        const double mr = faces_camera(Xr) ? max_err(Xr) : std::numeric_limits<double>::infinity();
         if (mr < mx) {
           X = Xr;
           mx = mr;
@@ -413,7 +423,7 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
     std::vector<std::pair<double, Eigen::Isometry3d>> fits;  // conic RMS, refined pose
     for (std::size_t s = 0; s < rvecs.size(); ++s) {
       const Eigen::Isometry3d X = pose_from_cv(rvecs[s], tvecs[s]);
-      if (!(X.translation().z() > 0) || X.linear().col(2).dot(X.translation()) >= 0) continue;
+      if (!faces_camera(X)) continue;
       const auto r = vision_internal::refine_pose_conics(K, X, o3, p.refine_points_per_ellipse,
                                                          p.refine_max_iter);
       if (r.ok && std::isfinite(r.rms_px) && r.X_CP.translation().z() > 0) {
@@ -486,7 +496,7 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
                      std::to_string(fit->max_err) + " px, gate " +
                      std::to_string(centre_gate(chosen)) + " px)");
           } else {
-            fail(VisionStatus::PoseFailed, "IPPE gave no solution in front");
+            fail(VisionStatus::PoseFailed, "IPPE gave no solution facing the camera");
           }
           return std::nullopt;
         }
@@ -503,7 +513,7 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
         }
         if (!best) {
           fill_centres();
-          fail(VisionStatus::PoseFailed, "IPPE gave no solution in front");
+          fail(VisionStatus::PoseFailed, "IPPE gave no solution facing the camera");
           return std::nullopt;
         }
         used_ellipse[pairs[chosen[drop]].outer] = false;
@@ -547,6 +557,10 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
     const auto ref = vision_internal::refine_pose_conics(K, X0, obs, p.refine_points_per_ellipse,
                                                          p.refine_max_iter);
     if (!ref.ok) return fail(VisionStatus::PoseFailed, "conic refinement (eq. 14-15) failed");
+    if (!faces_camera(ref.X_CP)) {
+      return fail(VisionStatus::PoseFailed,
+                  "the refined pose puts the camera behind the target's surface");
+    }
     d.X_CP = ref.X_CP;
     d.cov = ref.cov;
     d.edge_rms_px = ref.rms_px;
@@ -571,15 +585,20 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
          << "), conic residual " << d.edge_rms_px << " px (gate " << d.edge_gate_px << ")";
       return fail(VisionStatus::ReprojectionTooLarge, os.str());
     }
-    // The platform pass's sets are a few pixels across and far away, where the plane's two
-    // mirror poses (IPPE's two solutions: the normal tilted either way about the line of
-    // sight) project almost alike, and the closed form's choice by the centres is a coin
-    // toss (seen on exactly drawn 20 m, 55 deg views: a pose 109 deg off). Both are refined
-    // on the conics and the one that fits them better is kept only if the other is worse by
-    // both measures the pass has: the conic residual, by kMirrorMinResidualRatio, and the
-    // top's corners against its outline, by kMirrorMinCornerRatio. Otherwise the frame is
-    // ambiguous.
-    if (platform != nullptr) {
+    // The plane's two tilts (IPPE's two solutions: the normal tilted either way about the line
+    // of sight) project the centres almost alike when the sets are small or far, and the
+    // closed form's choice by the centres is then a coin toss: seen on exactly drawn 20 m,
+    // 55 deg views in the platform pass (a pose 109 deg off), and on independent ray-traced
+    // frames at 11-14 m and 22-39 deg under an uneven light that moved the centre ring's centre
+    // by 1.2-1.8 px (poses 44-75 deg off, the camera's tilt direction mirrored, within the
+    // reprojection gate). Both tilts are refined on the conics, which carry the perspective
+    // the centres lose, and the one that fits them better is kept only if the other is worse
+    // by kMirrorMinResidualRatio (the platform pass: and the top's corners against its outline
+    // by kMirrorMinCornerRatio). Otherwise the frame is ambiguous. Outside the platform pass
+    // the other tilt is refined only when its centres pass the layout gate (its closed form
+    // within centre_gate): a tilt that misplaces them is no rival.
+    std::string tilt_note;  // the reason's note when the other tilt was kept
+    {
       std::vector<cv::Point3d> obj;
       std::vector<cv::Point2d> img;
       std::vector<cv::Mat> rvecs, tvecs;
@@ -588,27 +607,47 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
         vision_internal::RefineResult r;
         double corners_px;
       };
-      std::vector<Tilt> tilts{
-          {ref, vision_internal::platform_corner_error_px(platform->quad, ref.X_CP, cam, target)}};
+      auto corners_px = [&](const Eigen::Isometry3d& X) {
+        return platform != nullptr
+                   ? vision_internal::platform_corner_error_px(platform->quad, X, cam, target)
+                   : 0.0;
+      };
+      const double layout_gate = centre_gate(chosen);
+      std::vector<Tilt> tilts{{ref, corners_px(ref.X_CP)}};
       for (std::size_t s = 0; s < rvecs.size(); ++s) {
         const Eigen::Isometry3d X = pose_from_cv(rvecs[s], tvecs[s]);
-        if (!(X.translation().z() > 0) || poses_agree(X, d.X_CP, p)) continue;
+        if (!faces_camera(X) || poses_agree(X, d.X_CP, p)) continue;
+        if (platform == nullptr) {
+          double mx = 0.0;
+          for (int k : chosen) {
+            mx = std::max(
+                mx,
+                (project(K, X, target.ring(pairs[k].ring_id).centre_P_m) - pairs[k].centre).norm());
+          }
+          if (!(mx <= layout_gate)) continue;
+        }
         const auto r = vision_internal::refine_pose_conics(K, X, obs, p.refine_points_per_ellipse,
                                                            p.refine_max_iter);
-        if (!r.ok || !std::isfinite(r.rms_px) || poses_agree(r.X_CP, d.X_CP, p)) continue;
-        tilts.push_back(
-            {r, vision_internal::platform_corner_error_px(platform->quad, r.X_CP, cam, target)});
+        if (!r.ok || !std::isfinite(r.rms_px) || !faces_camera(r.X_CP) ||
+            poses_agree(r.X_CP, d.X_CP, p)) {
+          continue;
+        }
+        tilts.push_back({r, corners_px(r.X_CP)});
       }
       if (tilts.size() > 1) {
         const bool second = tilts[1].r.rms_px < tilts[0].r.rms_px;
         const Tilt& a = tilts[second ? 1 : 0];
         const Tilt& b = tilts[second ? 0 : 1];
         if (!(b.r.rms_px >= kMirrorMinResidualRatio * a.r.rms_px &&
-              b.corners_px >= kMirrorMinCornerRatio * a.corners_px)) {
+              (platform == nullptr || b.corners_px >= kMirrorMinCornerRatio * a.corners_px))) {
           std::ostringstream os;
           os << "mirror pose ambiguous: conic residuals " << a.r.rms_px << " and " << b.r.rms_px
-             << " px, the top's corners " << a.corners_px << " and " << b.corners_px
-             << " px off its outline, for the plane's two tilts";
+             << " px";
+          if (platform != nullptr) {
+            os << ", the top's corners " << a.corners_px << " and " << b.corners_px
+               << " px off its outline";
+          }
+          os << ", for the plane's two tilts";
           return fail(VisionStatus::PoseFailed, os.str());
         }
         if (second) {
@@ -616,6 +655,10 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
           d.cov = a.r.cov;
           d.edge_rms_px = a.r.rms_px;
           d.refine_iterations = a.r.iterations;
+          std::ostringstream ot;
+          ot << " (the plane's other tilt: conic residual " << a.r.rms_px << " px against "
+             << b.r.rms_px << ")";
+          tilt_note = ot.str();
           set_reprojection();
           if (!(d.reproj_err_px <= d.reproj_gate_px)) {
             std::ostringstream os;
@@ -630,7 +673,7 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
     d.status = VisionStatus::Detected;
     d.source = PoseSource::Rings;
     std::ostringstream os;
-    os << chosen.size() << " ring sets identified";
+    os << chosen.size() << " ring sets identified" << tilt_note;
     d.reason = os.str();
     return true;
   };
@@ -1449,6 +1492,14 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vect
     }
   }
   combine_sources(d, cands, camera_.K(), target_, params_, track);
+  // Whatever gave the pose (rings, the code, the centre ring, combined), it must show the
+  // camera in front of the target's top (faces_camera).
+  if (d.detected && !faces_camera(d.X_CP)) {
+    d.detected = false;
+    d.status = VisionStatus::PoseFailed;
+    d.reason = std::string(to_string(d.source)) +
+               " pose rejected: it puts the camera behind the target's surface (" + d.reason + ")";
+  }
 
   // Tracking state: constant-pose prediction, dropped after a few misses.
   if (d.detected) {

@@ -122,7 +122,12 @@ cv::Mat render_ideal_ss(const TargetGeometry& g, const Eigen::Matrix3d& K, cv::S
   }
   // Shadow bands: each sample in front of the camera whose plane point (P, m) lies in a band
   // is multiplied by the band's light (supersampling makes the band's edges anti-aliased).
-  if (!opt.shadows.empty()) {
+  // The light ramp multiplies each such sample by its light at that point.
+  const LightRamp& ramp = opt.light_ramp;
+  const bool ramped = ramp.min_light != 1.0 && ramp.half_width_m > 0;
+  const double rc = std::cos(ramp.angle_deg * M_PI / 180.0);
+  const double rs = std::sin(ramp.angle_deg * M_PI / 180.0);
+  if (!opt.shadows.empty() || ramped) {
     const Eigen::Matrix3d G = (T * plane_homography(K, X_CP)).inverse();  // sample px -> P
     std::vector<std::pair<double, double>> dirs;  // each band's (cos, sin), once per view
     for (const auto& b : opt.shadows) {
@@ -140,6 +145,11 @@ cv::Mat render_ideal_ss(const TargetGeometry& g, const Eigen::Matrix3d& K, cv::S
           const auto& b = opt.shadows[i];
           const double s = px * dirs[i].first + py * dirs[i].second - b.offset_m;
           if (std::abs(s) < 0.5 * b.width_m) row[x] *= static_cast<float>(b.light);
+        }
+        if (ramped) {
+          const double u = std::clamp(
+              (px * rc + py * rs + ramp.half_width_m) / (2 * ramp.half_width_m), 0.0, 1.0);
+          row[x] *= static_cast<float>(1.0 + u * (ramp.min_light - 1.0));
         }
       }
     }

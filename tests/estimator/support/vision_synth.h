@@ -38,6 +38,16 @@ struct ShadowBand {
   double offset_m{0.0};    ///< signed distance of the band's centre line from the P origin (m)
 };
 
+// An uneven light across the platform plane (a cloud's edge, a lamp, the sun low behind the
+// vehicle): the light falls linearly along the direction n = (cos angle_deg, sin angle_deg)
+// from 1 at q . n = -half_width_m to `min_light` at q . n = +half_width_m (held beyond both
+// ends). Applied with the shadow bands, ground included. min_light = 1: none.
+struct LightRamp {
+  double angle_deg{0.0};
+  double half_width_m{0.9};
+  double min_light{1.0};
+};
+
 struct SynthOptions {
   int supersample{3};          ///< samples per pixel side (box filter)
   double ground_grey{0.45};    ///< grey level outside the platform (0..1)
@@ -47,6 +57,7 @@ struct SynthOptions {
   std::uint64_t seed{1};       ///< noise seed
   bool bgr{true};              ///< 3-channel output (else grey)
   std::vector<ShadowBand> shadows;  ///< shadow bands on the plane (none by default)
+  LightRamp light_ramp;             ///< uneven light on the plane (none by default)
 };
 
 // The ring sets (ids) whose outer circle a shadow band's edge crosses: the sets a band
