@@ -17,6 +17,8 @@ PKGS=(
   ffmpeg
   # campaign report (plots) and its headless-browser check
   python3 python3-matplotlib chromium
+  # the detector probe with independently rendered frames (tools/probe/)
+  python3-numpy python3-pil python3-scipy
   # sanitizer and fuzzing builds
   clang libclang-rt-14-dev
   # the one-node Slurm cluster of the campaign's cluster test
