@@ -93,9 +93,8 @@ TEST(VisionAcceptance, AnUnevenLightDoesNotFlipThePlaneTilt) {
         ++detected;
         other_tilt += d.reason.find("other tilt") != std::string::npos;
         const double range = X_CP.translation().norm();
-        const double rot_deg =
-            Eigen::AngleAxisd(d.X_CP.linear() * X_CP.linear().transpose()).angle() * 180.0 / M_PI;
-        EXPECT_LE((d.X_CP.translation() - X_CP.translation()).norm(), kMaxRangeError * range)
+        const double rot_deg = test::rotation_error_rad(d.X_CP, X_CP) * 180.0 / M_PI;
+        EXPECT_LE(test::position_error_m(d.X_CP, X_CP), kMaxRangeError * range)
             << "alt " << alt << " tilt " << tilt << " light " << light_deg << ": " << d.reason;
         EXPECT_LE(rot_deg, kMaxRotationErrorDeg)
             << "alt " << alt << " tilt " << tilt << " light " << light_deg << ": " << d.reason;
@@ -152,8 +151,7 @@ TEST(VisionAcceptance, NoPosePutsTheCameraBehindTheTarget) {
         const Eigen::Vector3d t = d.X_CP.translation();
         EXPECT_LT(d.X_CP.linear().col(2).dot(t), 0.0)
             << "alt " << alt << " tilt " << tilt << ": the camera behind the top; " << d.reason;
-        const double rot_deg =
-            Eigen::AngleAxisd(d.X_CP.linear() * X_CP.linear().transpose()).angle() * 180.0 / M_PI;
+        const double rot_deg = test::rotation_error_rad(d.X_CP, X_CP) * 180.0 / M_PI;
         EXPECT_LE(rot_deg, kMisprintMaxRotationErrorDeg)
             << "alt " << alt << " tilt " << tilt << ": " << d.reason;
       }

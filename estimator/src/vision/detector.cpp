@@ -369,18 +369,21 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
     }
     return true;
   };
+  // The largest reprojection error of the identified centres of `set` under the pose X (px).
+  auto max_centre_err = [&](const std::vector<int>& set, const Eigen::Isometry3d& X) {
+    double mx = 0.0;
+    for (int k : set) {
+      mx = std::max(
+          mx, (project(K, X, target.ring(pairs[k].ring_id).centre_P_m) - pairs[k].centre).norm());
+    }
+    return mx;
+  };
   auto ippe = [&](const std::vector<int>& set) -> std::optional<Fit> {
     std::vector<cv::Point3d> obj;
     std::vector<cv::Point2d> img;
     std::vector<cv::Mat> rvecs, tvecs;
     if (!ippe_solutions(set, obj, img, rvecs, tvecs)) return std::nullopt;
-    auto max_err = [&](const Eigen::Isometry3d& X) {
-      double mx = 0.0;
-      for (int k : set) {
-        mx = std::max(mx, (project(K, X, target.ring(pairs[k].ring_id).centre_P_m) - pairs[k].centre).norm());
-      }
-      return mx;
-    };
+    auto max_err = [&](const Eigen::Isometry3d& X) { return max_centre_err(set, X); };
     std::optional<Fit> fit;
     for (std::size_t s = 0; s < rvecs.size(); ++s) {
       // IPPE's closed form is exact for exact centres, not the least-squares pose. Refined on
@@ -617,15 +620,7 @@ bool run_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam
       for (std::size_t s = 0; s < rvecs.size(); ++s) {
         const Eigen::Isometry3d X = pose_from_cv(rvecs[s], tvecs[s]);
         if (!faces_camera(X) || poses_agree(X, d.X_CP, p)) continue;
-        if (platform == nullptr) {
-          double mx = 0.0;
-          for (int k : chosen) {
-            mx = std::max(
-                mx,
-                (project(K, X, target.ring(pairs[k].ring_id).centre_P_m) - pairs[k].centre).norm());
-          }
-          if (!(mx <= layout_gate)) continue;
-        }
+        if (platform == nullptr && !(max_centre_err(chosen, X) <= layout_gate)) continue;
         const auto r = vision_internal::refine_pose_conics(K, X, obs, p.refine_points_per_ellipse,
                                                            p.refine_max_iter);
         if (!r.ok || !std::isfinite(r.rms_px) || !faces_camera(r.X_CP) ||
