@@ -115,9 +115,10 @@ TEST(VisionDetector, PartialViewWithFourOrMoreRingsGivesPose) {
 // Given a sharp keyframe, when a heavily blurred frame yields a wrong pose, then eq. (18)
 // gives a large rho and the frame is rejected (reported, not used); a later sharp frame is
 // accepted again. The blur is the simulator's: the average of renders while the camera yaws
-// 10-20 deg during the exposure. Such a frame can mislead the ring identities; our layout and
-// reprojection gates then refuse it or find the right pose (checked), so here they are opened,
-// as in the paper's pipeline, which has none, to exercise the keyframe test on the wrong pose.
+// 10-20 deg during the exposure. Such a frame can mislead the ring identities; our layout,
+// reprojection and rotation checks then refuse it or find the right pose (checked), so here
+// they are opened, as in the paper's pipeline, which has none, to exercise the keyframe test
+// on the wrong pose.
 // (The camera-in-front check stays: the paper's pipeline gave the pose from behind the top
 // in the 3 m frames, which the detector no longer reports with any gates.)
 TEST(VisionDetector, KeyframeSelectionRejectsBlurredFrameWithWrongPose) {
@@ -126,6 +127,7 @@ TEST(VisionDetector, KeyframeSelectionRejectsBlurredFrameWithWrongPose) {
   p.max_centre_reproj_px = 1e3;
   p.max_reproj_err_px = 1e3;
   p.max_edge_residual_px = 1e3;
+  p.rotation_check = false;
   p.tracking = false;
   // A grossly wrong pose, the kind eq. (18) is there to catch: more than 20 cm or 10 deg off
   // (a sharp frame here is within 2 mm, 0.05 deg; a pose 10 cm and 3 deg off at 4 m gives a

@@ -55,6 +55,8 @@ void VisionParams::validate() const {
   require(platform_min_area_px >= 16, "platform_min_area_px", "must be >= 16");
   require(platform_max_quads >= 0 && platform_max_quads <= 16, "platform_max_quads",
           "must be in [0, 16]");
+  require(rotation_check_margin >= 0 && rotation_check_margin < 1, "rotation_check_margin",
+          "must be in [0, 1)");
   require(refine_max_iter >= 0, "refine_max_iter", "must be >= 0");
   require(refine_points_per_ellipse >= 6, "refine_points_per_ellipse", "must be >= 6");
   require(max_reproj_err_px > 0, "max_reproj_err_px", "must be > 0");

@@ -124,6 +124,16 @@ struct VisionParams {
                                        ///< across, whose contours merge or break at any level
   double platform_min_area_px{150.0};  ///< smallest top (px^2) taken as a quadrilateral
   int platform_max_quads{3};           ///< at most this many quadrilaterals a frame, largest first
+  // ---- ring identities checked on the sets' radial profiles (issue 12: no wrong pose) ----
+  bool rotation_check{true};           ///< every pose: the outer sets' radial profiles in the
+                                       ///< frame (angle-averaged about each predicted centre)
+                                       ///< must fit the pose's own identities better than every
+                                       ///< turn of the layout onto itself (60-300 deg), else no
+                                       ///< pose: identities read wrongly in a yaw-smeared frame
+                                       ///< turn the pose by 60-180 deg and pass every other gate
+  double rotation_check_margin{0.02};  ///< by at least this (normalised cross-correlation; the
+                                       ///< right identities lead by 0.05-0.11, turned ones trail
+                                       ///< by 0.08 or more on the views measured)
   // ---- blur (issue 12): the motion blur the caller predicts for the frame ----
   bool predict_blur{true};           ///< the flight stack predicts each frame's blur from its
                                      ///< own motion estimate and the exposure time and hands it
@@ -252,6 +262,8 @@ void visit_fields(V& v, VisionParams& p) {
   v("platform_pass", p.platform_pass);
   v("platform_min_area_px", p.platform_min_area_px);
   v("platform_max_quads", p.platform_max_quads);
+  v("rotation_check", p.rotation_check);
+  v("rotation_check_margin", p.rotation_check_margin);
   v("predict_blur", p.predict_blur);
   v("deblur_min_px", p.deblur_min_px);
   v("deblur_noise_ratio", p.deblur_noise_ratio);
