@@ -132,8 +132,9 @@ struct VisionParams {
                                        ///< pose: identities read wrongly in a yaw-smeared frame
                                        ///< turn the pose by 60-180 deg and pass every other gate
   double rotation_check_margin{0.02};  ///< by at least this (normalised cross-correlation; the
-                                       ///< right identities lead by 0.05-0.11, turned ones trail
-                                       ///< by 0.08 or more on the views measured)
+                                       ///< right identities lead by 0.033 or more on the full
+                                       ///< sweep's rendered views, turned ones trailed by 0.08
+                                       ///< or more on exactly drawn yaw-smeared frames)
   // ---- blur (issue 12): the motion blur the caller predicts for the frame ----
   bool predict_blur{true};           ///< the flight stack predicts each frame's blur from its
                                      ///< own motion estimate and the exposure time and hands it
