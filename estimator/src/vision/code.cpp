@@ -250,19 +250,7 @@ std::optional<Eigen::Matrix3d> fit_homography(const std::vector<Eigen::Vector2d>
   return E;
 }
 
-double bilinear(const cv::Mat& g, double x, double y) {
-  x = vision_internal::clamp_coord(x);
-  y = vision_internal::clamp_coord(y);
-  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
-  const double fx = x - x0, fy = y - y0;
-  auto at = [&](int xx, int yy) {
-    xx = std::clamp(xx, 0, g.cols - 1);
-    yy = std::clamp(yy, 0, g.rows - 1);
-    return static_cast<double>(g.at<std::uint8_t>(yy, xx));
-  };
-  return (1 - fx) * (1 - fy) * at(x0, y0) + fx * (1 - fy) * at(x0 + 1, y0) +
-         (1 - fx) * fy * at(x0, y0 + 1) + fx * fy * at(x0 + 1, y0 + 1);
-}
+using vision_internal::bilinear;
 
 // Code map extended by a margin of E cells: 0 light, 1 dark, 2 unknown (outside the inner
 // circle of the central ring set or not background).
@@ -1046,4 +1034,21 @@ CodeDetection detect_code_pattern(const cv::Mat& grey, const CameraModel& cam,
   return d;
 }
 
+namespace vision_internal {
+
+double bilinear(const cv::Mat& g, double x, double y) {
+  x = vision_internal::clamp_coord(x);
+  y = vision_internal::clamp_coord(y);
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  const double fx = x - x0, fy = y - y0;
+  auto at = [&](int xx, int yy) {
+    xx = std::clamp(xx, 0, g.cols - 1);
+    yy = std::clamp(yy, 0, g.rows - 1);
+    return static_cast<double>(g.at<std::uint8_t>(yy, xx));
+  };
+  return (1 - fx) * (1 - fy) * at(x0, y0) + fx * (1 - fy) * at(x0 + 1, y0) +
+         (1 - fx) * fy * at(x0, y0 + 1) + fx * fy * at(x0 + 1, y0 + 1);
+}
+
+}  // namespace vision_internal
 }  // namespace lander

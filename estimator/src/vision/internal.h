@@ -5,10 +5,11 @@
 #include <array>
 #include <cmath>
 #include <functional>
-#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "lander/estimator/target.h"
 #include "lander/estimator/types.h"
@@ -89,17 +90,13 @@ double platform_corner_gate_px(const PlatformQuad& q);
 // The ring identities checked on the outer sets' radial profiles (rotation_check.cpp): the
 // pose's own identities against every turn of the layout that maps it onto itself.
 struct RotationCheck {
-  struct Score {
-    double angle_rad;  ///< the layout turned by this about P's normal (0: the pose's own)
-    double ncc;        ///< the profiles' weighted normalised cross-correlation with it
-  };
   bool checked{false};  ///< enough outer sets wholly in view to compare
   bool passed{true};    ///< not checked, or the pose's own identities fit best by the margin
   int discs{0};         ///< outer sets wholly in view
-  double own_ncc{0.0}, best_other_ncc{0.0}, best_other_angle_rad{0.0};
-  std::vector<Score> scores;  ///< the pose's own first
-  std::string verdict;        ///< for the detection's reason
+  std::string verdict;  ///< the scores, for the detection's reason
 };
+// Bilinear grey value of the 8-bit image `g` at (x, y), clamped to the image (code.cpp).
+double bilinear(const cv::Mat& g, double x, double y);
 // `grey_of(r)`: the frame's 8-bit grey, converted at least in r (full-frame coordinates).
 RotationCheck check_set_rotation(const cv::Size& frame,
                                  const std::function<cv::Mat(const cv::Rect&)>& grey_of,

@@ -23,6 +23,7 @@
 #include <functional>
 #include <limits>
 #include <sstream>
+#include <utility>
 
 #include "vision/internal.h"
 
@@ -147,13 +148,6 @@ RotationCheck check_set_rotation(const cv::Size& frame,
                      static_cast<int>(std::floor(x1)) - static_cast<int>(std::floor(x0)) + 2,
                      static_cast<int>(std::floor(y1)) - static_cast<int>(std::floor(y0)) + 2);
   const cv::Mat grey = grey_of(box & cv::Rect(0, 0, frame.width, frame.height));
-  auto at = [&](float x, float y) {
-    const int xi = static_cast<int>(x), yi = static_cast<int>(y);
-    const float fx = x - xi, fy = y - yi;
-    const uchar* r0 = grey.ptr<uchar>(yi) + xi;
-    const uchar* r1 = grey.ptr<uchar>(yi + 1) + xi;
-    return (1 - fy) * ((1 - fx) * r0[0] + fx * r0[1]) + fy * ((1 - fx) * r1[0] + fx * r1[1]);
-  };
   // Each ray (one angle, every radius) divided by its own mean before the rays are averaged:
   // a shadow's light multiplies the grey along the rays it covers, so a band across a disc
   // leaves the profile's shape (exactly drawn views under 1 m bands at 20 % light: the right
@@ -169,7 +163,7 @@ RotationCheck check_set_rotation(const cv::Size& frame,
     for (int a = 0; a < kAngles; ++a) {
       double mean = 0.0;
       for (int i = 0; i < kRadii; ++i) {
-        ray[i] = at(pts[v][i * kAngles + a].x(), pts[v][i * kAngles + a].y());
+        ray[i] = bilinear(grey, pts[v][i * kAngles + a].x(), pts[v][i * kAngles + a].y());
         mean += ray[i] / kRadii;
       }
       if (!(mean >= kMinRayMeanGrey)) continue;
@@ -187,7 +181,9 @@ RotationCheck check_set_rotation(const cv::Size& frame,
     r.verdict = std::to_string(r.discs) + " outer set(s) lit in view, not checked";
     return r;
   }
-  // Weighted normalised cross-correlation of the profiles with each turn's printed ones.
+  // Weighted normalised cross-correlation of the profiles with each turn's printed ones
+  // (angle, score), the pose's own first.
+  std::vector<std::pair<double, double>> scores;
   for (const auto& sym : syms) {
     double sw = 0, so = 0, sm = 0, soo = 0, smm = 0, som = 0;
     for (int v : outer) {
@@ -204,23 +200,20 @@ RotationCheck check_set_rotation(const cv::Size& frame,
     const double var_o = soo / sw - mo * mo, var_m = smm / sw - mm * mm;
     const double ncc =
         var_o > 1e-9 && var_m > 1e-12 ? (som / sw - mo * mm) / std::sqrt(var_o * var_m) : 0.0;
-    r.scores.push_back({sym.angle_rad, ncc});
+    scores.emplace_back(sym.angle_rad, ncc);
   }
   r.checked = true;
-  const double own = r.scores[0].ncc;
-  double best = -2.0, best_angle = 0.0;
-  for (std::size_t k = 1; k < r.scores.size(); ++k) {
-    if (r.scores[k].ncc > best) best = r.scores[k].ncc, best_angle = r.scores[k].angle_rad;
+  std::size_t best = 1;
+  for (std::size_t k = 2; k < scores.size(); ++k) {
+    if (scores[k].second > scores[best].second) best = k;
   }
-  r.own_ncc = own;
-  r.best_other_ncc = best;
-  r.best_other_angle_rad = best_angle;
-  r.passed = own - best >= margin;
+  const double own = scores[0].second;
+  r.passed = own - scores[best].second >= margin;
   std::ostringstream os;
   os.precision(3);
   os << "ring identities checked on " << r.discs << " sets' radial profiles: " << own << " against "
-     << best << " for the layout turned by "
-     << std::lround(std::remainder(best_angle, 2 * M_PI) * 180.0 / M_PI) << " deg";
+     << scores[best].second << " for the layout turned by "
+     << std::lround(std::remainder(scores[best].first, 2 * M_PI) * 180.0 / M_PI) << " deg";
   r.verdict = os.str();
   return r;
 }
