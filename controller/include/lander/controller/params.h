@@ -340,7 +340,7 @@ struct LandingParams {
   double search_max_height_m{10.0};       ///< ... up to this height above the platform top
                                           ///< (m): the view's narrow half-width grows from
                                           ///< ~3 m at 6 m to ~5.5 m, and the target is
-                                          ///< detected from 15 m (DESIGN.md)
+                                          ///< detected from 15 m (docs/design/architecture.md)
   // The platform's broadcast position (its own GNSS fix sent over a radio link, as a ship or a
   // ground vehicle would send it; received only when the scenario's plant has
   // sensors.platform_telemetry.enabled). Without a fix of the target, the search flies to it

@@ -1,6 +1,6 @@
 // What the flight software sees: timestamped sensor samples, camera calibration and mount.
 // These are the only inputs the estimator and controller get from the vehicle (or the
-// simulator); ground truth never appears here. Frames and names follow DESIGN.md:
+// simulator); ground truth never appears here. Frames and names follow docs/design/architecture.md:
 // X_AB is the pose of frame B in frame A; W world (z up), B body (x fwd, y left, z up),
 // C camera (OpenCV: x right, y down, z optical axis), P platform (z out of the top).
 #pragma once

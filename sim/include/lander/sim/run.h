@@ -1,4 +1,4 @@
-// Runs one scenario end to end and writes its outputs (DESIGN.md, "Outputs of a run"):
+// Runs one scenario and writes its outputs (docs/design/architecture.md, "Outputs of a run"):
 // summary.json (versioned schema, deterministic for a scenario and seed), trace.csv,
 // scenario.resolved.yaml, performance.json (wall-clock timings), and with video on,
 // camera.mp4 and chase.mp4.

@@ -2,7 +2,7 @@
 // lag, saturation and per-rotor deviations, ground effect per rotor, wind, the cart driven
 // along its path, the camera where it is really mounted, the platform at its real height, the
 // light). It takes rotor speed commands and gives the truth; it never sees the flight
-// software's configuration (DESIGN.md, "The loop").
+// software's configuration (docs/design/architecture.md, "The loop").
 #pragma once
 
 #include <string>
