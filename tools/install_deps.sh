@@ -19,6 +19,10 @@ PKGS=(
   python3 python3-matplotlib chromium
   # the detector probe with independently rendered frames (tools/probe/)
   python3-numpy python3-pil python3-scipy
+  # the documentation site (mkdocs build --strict) and its reference generator (tests/docs/)
+  mkdocs python3-yaml
+  # the Python package and its tests (python/)
+  pybind11-dev python3-pytest python3-pandas python3-dev
   # sanitizer and fuzzing builds
   clang libclang-rt-14-dev
   # the one-node Slurm cluster of the campaign's cluster test
