@@ -256,13 +256,20 @@ def screenshot(page, png, tmp, Image):
         return im.convert("RGB")
 
 
+def darkest_channel(img):
+    """Per pixel, the smallest of R, G, B (an 'L' image)."""
+    from PIL import ImageChops
+    r, g, b = img.convert("RGB").split()
+    return ImageChops.darker(r, ImageChops.darker(g, b))
+
+
 def ink(img, box=None):
     """Share of pixels with any channel below 235 (not white), optionally inside a box."""
     if box:
         img = img.crop(box)
-    px = img.getdata()
-    n = len(px)
-    return sum(1 for r, g, b in px if min(r, g, b) < 235) / float(n) if n else 0.0
+    hist = darkest_channel(img).histogram()
+    n = sum(hist)
+    return sum(hist[:235]) / float(n) if n else 0.0
 
 
 def ink_match(shot, ref, box, Image):
@@ -271,17 +278,15 @@ def ink_match(shot, ref, box, Image):
     the theme draws); the browser's scaling and rounding move edges by a pixel or two, so the
     screenshot's ink is dilated by 5 px before the match (text that happens to lie there
     matches only by chance: a few tenths at most)."""
-    from PIL import ImageFilter
+    from PIL import ImageChops, ImageFilter
     w, h = box[2] - box[0], box[3] - box[1]
-    r = ref.convert("L").resize((w, h))
-    crop = shot.crop(box).convert("L")
-    r_ink = r.point(lambda v: 255 if v < 200 else 0)
-    c_ink = crop.point(lambda v: 255 if v < 235 else 0).filter(ImageFilter.MaxFilter(5))
-    rp, cp = list(r_ink.getdata()), list(c_ink.getdata())
-    n = sum(1 for a in rp if a)
+    r_ink = darkest_channel(ref.resize((w, h))).point(lambda v: 255 if v < 200 else 0)
+    c_ink = darkest_channel(shot.crop(box)).point(lambda v: 255 if v < 235 else 0).filter(ImageFilter.MaxFilter(5))
+    n = r_ink.histogram()[255]
     if n == 0:
         return 1.0
-    return sum(1 for a, b in zip(rp, cp) if a and b) / float(n)
+    both = ImageChops.multiply(r_ink, c_ink).histogram()[255]
+    return both / float(n)
 
 
 def check_browser(site, tmp, keep):

@@ -127,6 +127,15 @@ def md(s):
     return str(s).replace("|", "\\|").replace("\n", " ").replace("<", "&lt;").replace(">", "&gt;")
 
 
+def prose(text):
+    """A comment line as Markdown prose: < and > outside backquoted spans escaped, so that
+    `runs/<id>/` in a comment is not taken for an HTML tag."""
+    parts = text.split("`")
+    for i in range(0, len(parts), 2):
+        parts[i] = parts[i].replace("<", "&lt;").replace(">", "&gt;")
+    return "`".join(parts)
+
+
 def code(s):
     s = str(s).replace("|", "\\|")
     return "`%s`" % s if s else ""
@@ -617,7 +626,7 @@ def write_cli_page(path, lander, repo):
         lines += ["## `lander %s`" % names if regs else "## `%s`" % fn, "",
                   "Source: `tools/lander/%s`." % fn, ""]
         if head:
-            lines += ["> " + h if h else ">" for h in head]
+            lines += ["> " + prose(h) if h else ">" for h in head]
             lines.append("")
         for n, s, k in regs:
             lines.append("- summary (`lander --help`): %s" % md(s))
