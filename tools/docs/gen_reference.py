@@ -146,12 +146,15 @@ def unit_of(key, doc):
     for suf, unit in SUFFIXES:
         if last.endswith(suf) and len(last) > len(suf):
             return unit, "suffix"
-    if doc:
-        m = UNIT_IN_COMMENT.search(doc.split(". ")[0] if ". " in doc else doc)
-        if m is None:
-            m = UNIT_IN_COMMENT.search(doc)
-        if m:
-            return m.group(1), "comment"
+    # A unit from the comment only where it plainly belongs to the field: a short first
+    # clause that ends with it ("horizontal position gain (1/s)"), and never for a key whose
+    # name says it is a ratio (a "(px)" there names what the ratio is of).
+    if doc and not re.search(r"_(fraction|ratio|share|factor|frac|sigma|count)$", last):
+        first = re.split(r"(?<=[.;:])\s", doc.strip(), maxsplit=1)[0]
+        if len(first) <= 90:
+            m = UNIT_IN_COMMENT.search(first)
+            if m:
+                return m.group(1), "comment"
     return "", ""
 
 
@@ -308,8 +311,9 @@ test fails when this page differs from what the code gives):
 - **key** and **default**: `scenario.resolved.yaml` as `lander run` writes it for a scenario
   that sets nothing but a test hook{flight_note}; paths are shown relative to the repository;
 - **unit**: the key's suffix (`_m`, `_s`, `_mps`, `_deg`, `_hz`, `_px`, ...; a YAML key names
-  its unit where it is not SI, e.g. `exposure_ms`), else the unit in parentheses at the end of
-  the field's comment (marked *comment*); empty for counts, flags, gains and ratios without one;
+  its unit where it is not SI, e.g. `exposure_ms`), else the unit in parentheses closing the
+  short first clause of the field's comment (marked *comment*; never for a ratio's key);
+  empty for counts, flags, gains and ratios without one;
 - **allowed**: the validation message the scenario loader gives (`lander docs probe`, as
   `lander run` would load the file) with the key set to -1e9 and to 1e9 (the second is left
   out when the first message states both bounds; a string key: a nonsense word), quoted;
