@@ -44,6 +44,7 @@ import yaml
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
+sys.dont_write_bytecode = True  # no __pycache__ left in the source tree by the CTest check
 import cxx_params  # noqa: E402
 
 REPO = os.path.normpath(os.path.join(HERE, "..", ".."))
