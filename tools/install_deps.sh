@@ -14,6 +14,8 @@ PKGS=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libapriltag-dev
   nlohmann-json3-dev libfmt-dev
+  # sha256 of flight plugins (summary.json, run.json, campaign.csv)
+  libssl-dev
   ffmpeg
   # campaign report (plots) and its headless-browser check
   python3 python3-matplotlib chromium

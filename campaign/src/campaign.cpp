@@ -378,7 +378,9 @@ YAML::Node resolved_defaults() {
 Campaign Campaign::load(const std::string& path) {
   const YAML::Node root = load_yaml_file(path);
   if (!root.IsMap()) fail(yaml_where(root, path), "a campaign file is a mapping (name, seed, scenarios, dispersions)");
-  check_keys(root, path, {"name", "description", "seed", "offset_limit_m", "run_timeout_s", "scenarios", "dispersions"}, "");
+  check_keys(root, path,
+             {"name", "description", "seed", "offset_limit_m", "run_timeout_s", "flight_plugin", "scenarios", "dispersions"},
+             "");
   Campaign c;
   c.file = path;
   const YAML::Node defaults = resolved_defaults();
@@ -402,6 +404,11 @@ Campaign Campaign::load(const std::string& path) {
   if (const YAML::Node n = child(root, "run_timeout_s"); n.IsDefined()) {
     c.run_timeout_s = number(n, yaml_where(n, path), "run_timeout_s");
     if (!(c.run_timeout_s > 0)) fail(yaml_where(n, path), "run_timeout_s: must be > 0");
+  }
+  if (const YAML::Node n = child(root, "flight_plugin"); n.IsDefined()) {
+    if (!n.IsScalar() || n.Scalar().empty()) fail(yaml_where(n, path), "flight_plugin: expected the path of a plugin file");
+    c.flight_plugin = flight::resolve_plugin_path(n.Scalar(), path);
+    if (!fs::is_regular_file(c.flight_plugin)) fail(yaml_where(n, path), "flight_plugin: no such file: " + c.flight_plugin);
   }
   c.dispersions = read_dispersions(child(root, "dispersions"), path, defaults);
   const YAML::Node list = child(root, "scenarios");
@@ -510,6 +517,7 @@ std::vector<PlannedRun> make_plan(const Campaign& c) {
         fail(where, "run " + r.id + " with its sampled values is not a valid scenario: " + msg);
       }
       r.duration_s = s.duration_s;
+      r.flight_plugin = c.flight_plugin;
       plan.push_back(std::move(r));
     }
   }
@@ -519,7 +527,15 @@ std::vector<PlannedRun> make_plan(const Campaign& c) {
 std::string run_scenario_yaml(const PlannedRun& r) {
   const sim::Scenario defaults_s = sim::Scenario::defaults();
   sim::Scenario s = defaults_s;
+  const std::string plugin_default = s.flight.plugin, python_default = s.flight.python;
   read_params(run_node(load_yaml_file(r.scenario_file), r), r.scenario_file, s);
+  // The campaign's flight plugin, else the scenario's (a relative path from its file).
+  if (!r.flight_plugin.empty()) {
+    s.flight.plugin = r.flight_plugin;
+  } else if (s.flight.plugin != plugin_default) {
+    s.flight.plugin = flight::resolve_plugin_path(s.flight.plugin, r.scenario_file);
+  }
+  if (s.flight.python != python_default) s.flight.python = flight::resolve_python_path(s.flight.python, r.scenario_file);
   // Taken to its fixed point: unit scales such as deg -> rad round once.
   std::string text = yaml_to_string(params_to_yaml(s));
   for (int k = 0; k < 3; ++k) {

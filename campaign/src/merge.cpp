@@ -33,7 +33,14 @@ struct Row {
   // Path following (summary.json path_following, worlds with a route; NaN where null).
   bool has_path{false}, path_covered{false};
   double xt_mean{NAN}, xt_p95{NAN}, xt_max_cap{NAN}, cover_t{NAN}, target_share{NAN};
+  // Who flew (run.json's flight_software; empty where the run wrote none).
+  std::string fs_name, fs_version, fs_sha256;
 };
+
+// "name version" of a run's flight software, "" when unknown.
+std::string flight_software_label(const Row& r) {
+  return r.fs_name.empty() ? std::string() : r.fs_name + (r.fs_version.empty() ? "" : " " + r.fs_version);
+}
 
 // The path-following columns of campaign.csv and their values (campaigns with a route only).
 const std::vector<std::string> kPathColumns = {"path_covered", "path_time_to_cover_s",
@@ -266,6 +273,12 @@ MergeResult merge_campaign(const std::string& dir, const MergeOptions& o) {
     r.detail = rec.value("detail", "");
     r.landed = rec.value("landed", false);
     r.wall = num(rec, "wall_s");
+    if (rec.contains("flight_software") && rec["flight_software"].is_object()) {
+      const json& f = rec["flight_software"];
+      r.fs_name = f.value("name", "");
+      r.fs_version = f.value("version", "");
+      if (f.contains("plugin_sha256") && f["plugin_sha256"].is_string()) r.fs_sha256 = f["plugin_sha256"].get<std::string>();
+    }
     if (r.status == "ok") {
       try {
         const json s = json::parse(sim::read_file_text(rdir + "/summary.json", true));
@@ -312,6 +325,8 @@ MergeResult merge_campaign(const std::string& dir, const MergeOptions& o) {
   // Campaigns with a route get the path-following columns at the end (others keep their
   // columns exactly).
   const bool any_path = std::any_of(rows.begin(), rows.end(), [](const Row& r) { return r.has_path; });
+  // Who flew each run, then (campaigns with a route) the path-following columns.
+  for (const char* c : {"flight_software", "flight_software_version", "flight_plugin_sha256"}) header.push_back(c);
   if (any_path) header.insert(header.end(), kPathColumns.begin(), kPathColumns.end());
   sim::CsvWriter csv(dir + "/campaign.csv", header);
   for (const Row& r : rows) {
@@ -320,6 +335,7 @@ MergeResult merge_campaign(const std::string& dir, const MergeOptions& o) {
     for (const std::string& c : cols) csv.text(json_scalar_text(input_value(r, c)));
     csv.text(cell(r.x_P)).text(cell(r.y_P)).text(cell(r.speed)).text(cell(r.tilt)).text(cell(r.time))
         .text(cell(r.wall)).text(r.status).text(r.detail);
+    csv.text(r.fs_name).text(r.fs_version).text(r.fs_sha256);
     if (any_path) {
       csv.text(r.has_path ? (r.path_covered ? "1" : "0") : "").text(cell(r.cover_t)).text(cell(r.xt_mean))
           .text(cell(r.xt_p95)).text(cell(r.xt_max_cap)).text(cell(r.target_share));
@@ -339,6 +355,14 @@ MergeResult merge_campaign(const std::string& dir, const MergeOptions& o) {
   j["runs_complete"] = res.complete;
   j["missing"] = res.missing;
   j["dispersion_keys"] = keys;
+  // The flight softwares that flew ("name version" -> runs; one entry unless mixed).
+  json flown = json::object();
+  for (const Row& r : rows) {
+    const std::string who = flight_software_label(r);
+    if (!who.empty()) flown[who] = flown.value(who, 0) + 1;
+  }
+  j["flight_software"] = flown;
+  j["flight_plugin"] = plan.value("flight_plugin", json(nullptr));
   std::vector<const Row*> all;
   for (const Row& r : rows) all.push_back(&r);
   j["overall"] = group_stats(all);

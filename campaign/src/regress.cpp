@@ -475,6 +475,16 @@ json campaign_info(const CampaignResults& c) {
   j["runs"] = c.runs.size();
   j["missing"] = s.contains("missing") && s["missing"].is_array() ? s["missing"].size() : 0;
   j["simulator_failures"] = failures;
+  // Which flight software flew (campaign.json's "name version" -> runs; a campaign merged
+  // before it was recorded says so).
+  std::string who;
+  if (s.contains("flight_software") && s["flight_software"].is_object() && !s["flight_software"].empty()) {
+    for (const auto& [name, n] : s["flight_software"].items()) who += (who.empty() ? "" : ", ") + name;
+  } else {
+    who = "not recorded";
+  }
+  j["flight_software"] = who;
+  j["flight_plugin"] = s.value("flight_plugin", json(nullptr));
   return j;
 }
 

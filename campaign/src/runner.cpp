@@ -20,6 +20,7 @@
 #include <fmt/format.h>
 
 #include "lander/estimator/params_io.h"
+#include "lander/flight/flight_plugin.h"
 #include "lander/sim/util/output_files.h"
 #include "lander/sim/util/process.h"
 #include "yaml_json.h"
@@ -70,6 +71,11 @@ json plan_json(const Campaign& c, const std::vector<PlannedRun>& plan) {
   j["master_seed"] = c.seed;
   j["campaign_file"] = fs::absolute(c.file).lexically_normal().string();
   j["offset_limit_m"] = c.offset_limit_m;
+  // The flight software, when a plugin flies every run: a different file (or the same file
+  // rebuilt) is a different campaign, refused in the same directory.
+  j["flight_plugin"] = c.flight_plugin.empty()
+                           ? json(nullptr)
+                           : json{{"path", c.flight_plugin}, {"sha256", flight::file_sha256(c.flight_plugin)}};
   std::set<std::string> keys;
   for (const PlannedRun& r : plan) {
     for (const auto& kv : r.sampled) keys.insert(kv.first);
@@ -193,6 +199,15 @@ json finish_record(const Active& a, const sim::ExitStatus& st, double wall_s) {
   rec["exit"] = st.describe();
   rec["wall_s"] = wall_s;
   rec["stderr_tail"] = file_tail(a.partial + "/stderr.log", 2000);
+  // Who flew (the run's flight_software.json: name, version, builtin or plugin file + sha256).
+  rec["flight_software"] = nullptr;
+  try {
+    if (fs::exists(a.partial + "/flight_software.json")) {
+      rec["flight_software"] = json::parse(sim::read_file_text(a.partial + "/flight_software.json", true));
+    }
+  } catch (const json::exception&) {
+    // Left null: the record says nothing it cannot read.
+  }
   return rec;
 }
 

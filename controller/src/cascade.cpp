@@ -112,6 +112,13 @@ void CascadeController::update_outer(double t_s, const Setpoint& sp, const NavSt
   diag_.force_sp_W_N = force_sp_W_;
 }
 
+void CascadeController::hold_thrust(double t_s, const Eigen::Vector3d& force_W_N, double yaw_rad) {
+  last_outer_t_ = t_s;
+  force_sp_W_ = force_W_N;
+  yaw_sp_ = yaw_rad;
+  diag_.force_sp_W_N = force_sp_W_;
+}
+
 // The rotors push along z_B only, so the specific force the accelerometer reads is
 //   f_B = (T / m) e_z + R_WB^T F_ext / m,
 // and its body-x/y components are the external force (drag in wind, gusts) per mass. In W,

@@ -136,6 +136,17 @@ void YamlReader::operator()(const char* key, std::string& field) {
   if (n) field = scalar<std::string>(n, key, "a string");
 }
 
+void YamlReader::operator()(const char* key, YAML::Node& field) {
+  YAML::Node n = take(key);
+  if (!n) return;
+  if (n.IsNull()) {
+    field = YAML::Node(YAML::NodeType::Map);
+    return;
+  }
+  if (!n.IsMap()) fail(n, key, "expected a mapping");
+  field = YAML::Clone(n);
+}
+
 void YamlReader::operator()(const char* key, std::vector<double>& field, double scale) {
   YAML::Node n = take(key);
   if (!n) return;

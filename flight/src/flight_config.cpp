@@ -7,6 +7,9 @@ namespace lander::flight {
 
 void FlightConfig::validate() const {
   require(!target_path.empty(), "target", "must name a target YAML");
+  require(plugin.empty() || python.empty(), "python", "one flight software flies: flight.plugin is set too");
+  require(python.empty() || (python.rfind(':') != std::string::npos && python.rfind(':') + 1 < python.size()),
+          "python", "must be FILE.py:CLASS (got '" + python + "')");
   validate_nested("camera", camera);
   validate_nested("mount", mount);
   validate_nested("estimator", estimator);
@@ -29,6 +32,8 @@ FlightConfig FlightConfig::load(const std::string& path) {
   if (root.IsMap() && root["target"] && fs::path(c.target_path).is_relative()) {
     c.target_path = (fs::path(c.file).parent_path() / c.target_path).lexically_normal().string();
   }
+  c.plugin = resolve_plugin_path(c.plugin, c.file);
+  c.python = resolve_python_path(c.python, c.file);
   return c;
 }
 
@@ -40,6 +45,18 @@ std::string resolve_flight_file(const std::string& file_value, const std::string
   fs::path p(file_value);
   if (p.is_relative()) p = fs::path(scenario_file).parent_path() / p;
   return fs::absolute(p).lexically_normal().string();
+}
+
+std::string resolve_python_path(const std::string& python, const std::string& naming_file) {
+  const auto colon = python.rfind(':');
+  if (python.empty() || colon == std::string::npos) return python;
+  return resolve_plugin_path(python.substr(0, colon), naming_file) + python.substr(colon);
+}
+
+std::string resolve_plugin_path(const std::string& plugin, const std::string& naming_file) {
+  namespace fs = std::filesystem;
+  if (plugin.empty() || fs::path(plugin).is_absolute()) return plugin;
+  return fs::absolute(fs::path(naming_file).parent_path() / plugin).lexically_normal().string();
 }
 
 }  // namespace lander::flight

@@ -1,7 +1,10 @@
 #include "lander/flight/flight_stack.h"
 
 #include <cmath>
+#include <limits>
+#include <utility>
 
+#include "internal.h"
 #include "lander/estimator/altitude_vision.h"
 #include "lander/estimator/motion_blur.h"
 #include "lander/estimator/target.h"
@@ -22,16 +25,145 @@ const FlightConfig& validated(const FlightConfig& c) {
   c.validate();
   return c;
 }
+
+static_assert(kRotorCount == ctl::kNumRotors, "the seam's rotor count is the mixer's");
+
 }  // namespace
 
-FlightStack::FlightStack(const FlightConfig& config)
+// ------------------------------------------------------------------------------ frame job
+RingFrameJob::RingFrameJob(FlightStack& stack, const CameraFrameIn& frame, bool run_path, const Eigen::Vector2d& blur_px)
+    : stack_(stack), frame_(frame), run_path_(run_path), blur_px_(blur_px) {}
+
+void RingFrameJob::process() {
+  const double t_mid = frame_.exposure.mid();
+  if (stack_.user_detector_) {
+    Detection d = stack_.user_detector_->detect(frame_.image, frame_, blur_px_);
+    vr_.obs = d.obs;
+    vr_.obs.t_s = t_mid;
+    if (vr_.obs.detected && vr_.obs.keyframe) vr_.h_plane_m = height_above_target_m(vr_.obs.X_CP, stack_.mount().X_BC());
+    report_ = std::move(d.report);
+  } else {
+    const cv::Mat bgr = as_mat(frame_.image);
+    const auto t0 = Clock::now();
+    const double c0 = thread_cpu_ms();
+    const RingDetection det = stack_.detect(bgr, blur_px_);
+    const double cpu_ms = thread_cpu_ms() - c0, wall_ms = ms_since(t0);
+    vr_ = stack_.vision_result(det, t_mid);
+    report_ = detection_report(det, stack_.mount().X_BC());
+    report_.detector_ms = wall_ms;
+    report_.detector_cpu_ms = cpu_ms;
+  }
+  if (run_path_) {
+    const auto t1 = Clock::now();
+    vr_.path = stack_.detect_path(as_mat(frame_.image), t_mid);
+    report_.path_ms = ms_since(t1);
+    report_.route_searched = true;
+    report_.route_points_px = vr_.path->points_px;
+  }
+}
+
+bool RingFrameJob::inject(const VisionFault& fault) {
+  PlatformObservation& obs = vr_.obs;
+  if (fault.kind == VisionFault::Kind::kOffsetAlongAxis) {
+    // The pose pushed along the optical axis, as if the detector had measured it there.
+    obs.X_CP.translation().z() += fault.offset_m;
+    const double h = height_above_target_m(obs.X_CP, stack_.mount().X_BC());
+    if (obs.detected && obs.keyframe) vr_.h_plane_m = h;
+    if (report_.detected) report_.vision_height_m = h;
+  } else {
+    // A "detection" with a NaN pose on its way to the filters (the report keeps the detector's).
+    constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+    obs.detected = true;
+    obs.keyframe = true;
+    obs.X_CP.translation().setConstant(kNaN);
+    obs.cov.setConstant(kNaN);
+    vr_.h_plane_m = height_above_target_m(obs.X_CP, stack_.mount().X_BC());
+  }
+  return true;
+}
+
+// ---------------------------------------------------------------------------- the stack
+
+FlightStack::FlightStack(const FlightConfig& config, std::unique_ptr<VisionDetector> detector)
     : config_(validated(config)),
       detector_(config_.camera, TargetGeometry::load(config_.target_path), config_.estimator.vision),
+      user_detector_(std::move(detector)),
       path_extractor_(config_.camera, config_.estimator.path),
-      nav_(config_.estimator.navigation),
-      fusion_(config_.estimator.altitude),
-      screen_(config_.estimator.sample_limits),
+      est_(config_.estimator),
       controller_(config_.controller, config_.mount) {}
+
+FlightStack::~FlightStack() = default;
+
+FlightSoftwareInfo FlightStack::info() const { return {"lander", LANDER_VERSION}; }
+
+std::unique_ptr<FrameJob> FlightStack::begin_frame(const CameraFrameIn& frame) {
+  // The path stage (seed 003) runs only while the controller can use it; the blur is
+  // predicted from the state the flight software has when the frame arrives.
+  return std::make_unique<RingFrameJob>(*this, frame, wants_path(), predicted_blur_px(frame.exposure));
+}
+
+void FlightStack::deliver_frame(std::unique_ptr<FrameJob> job) {
+  on_vision(static_cast<const RingFrameJob&>(*job).result());
+}
+
+FlightStatus FlightStack::status() const {
+  FlightStatus st;
+  st.mode = ctl::to_string(controller_.mode());
+  st.motors_cut = controller_.diagnostics().motors_cut;
+  st.aborted = controller_.aborted();
+  st.following_route = controller_.mode() == ctl::Mode::kFollowPath;
+  st.route_ended = controller_.route_ended();
+  if (st.route_ended) st.route_end_t_s = controller_.route_end_t();
+  st.altitude_valid = est_.altitude_started();
+  st.altitude = est_.altitude();
+  return st;
+}
+
+FlightTelemetry FlightStack::telemetry() const {
+  FlightTelemetry t;
+  t.nav = est_.nav_state();
+  const ctl::LandingDiagnostics& dg = controller_.diagnostics();
+  t.platform_W_m = dg.platform_W_m;
+  t.platform_v_W_mps = dg.platform_v_W_mps;
+  t.horizontal_error_m = dg.horizontal_error_m;
+  t.setpoint_W_m = dg.setpoint.p_W_m;
+  return t;
+}
+
+FlightReport FlightStack::report() const {
+  const ctl::LandingController& c = controller_;
+  FlightReport r;
+  for (const auto& tr : c.transitions()) r.transitions.push_back({tr.t_s, ctl::to_string(tr.from), ctl::to_string(tr.to), tr.reason});
+  r.final_mode = ctl::to_string(c.mode());
+  const ctl::LandingDecisionLog& dl = c.decision_log();
+  r.attempts = dl.attempts;
+  r.decision = dl.decision;
+  r.decision_reason = dl.reason;
+  r.decision_t_s = dl.t_s;
+  r.wide_gate_m = dl.wide_gate_m;
+  for (const ctl::LandingEvent& e : dl.events) r.events.push_back({e.t_s, e.attempt, e.what, e.reason});
+  for (const ctl::Reacquisition& q : c.reacquisitions()) {
+    r.reacquisitions.push_back({q.t_last_seen_s, q.t_lost_s, ctl::to_string(q.lost_in), q.t_reacquired_s, q.prediction_error_m});
+  }
+  r.telemetry_received = c.telemetry_received();
+  r.telemetry_search_s = static_cast<double>(c.telemetry_search_steps()) / c.params().cascade.outer_rate_hz;
+  r.rejected = est_.rejected();
+  r.altitude_height_resets = est_.height_resets();
+  r.altitude_baro_fallback_updates = est_.baro_fallback_updates();
+  r.path_steps = c.path_steps();
+  r.path_target_steps = c.path_target_steps();
+  return r;
+}
+
+std::optional<RotorSpeeds> FlightStack::on_imu(const ImuSample& raw) {
+  const std::optional<ctl::RotorCommand> cmd = step_imu(raw);
+  if (!cmd) return std::nullopt;
+  RotorSpeeds out;
+  out.t_s = cmd->t_s;
+  out.motors_cut = cmd->motors_cut;
+  for (int r = 0; r < kRotorCount; ++r) out.w_radps[r] = cmd->w_radps[r];
+  return out;
+}
 
 VisionResult FlightStack::vision_result(const RingDetection& det, double t_mid_s) const {
   VisionResult vr;
@@ -57,7 +189,7 @@ Eigen::Vector2d FlightStack::predicted_blur_px(const ExposureInterval& exposure)
   if (fix) {
     Z = (R_WC.transpose() * tracker.relative_now(nav.t_s)).z();
   } else {
-    const double h = fusion_started_ ? fusion_.estimate().h_surface_m : nav.p_W_m.z();
+    const double h = est_.altitude_started() ? est_.altitude().h_surface_m : nav.p_W_m.z();
     Z = h / std::max(kMinAxisCosine, -R_WC.col(2).z());
   }
   Z = std::max(Z, kMinBlurDepthM);
@@ -77,35 +209,10 @@ PathObservation FlightStack::detect_path(const cv::Mat& bgr, double t_mid_s) con
   return o;
 }
 
-void FlightStack::on_baro(const BaroSample& b) {
-  if (!screen_.accept(b)) return;
-  if (!fusion_started_) {
-    // In the air at start: the first reading fixes height + baro bias, not their split.
-    fusion_.reset_from_baro(b);
-    fusion_started_ = true;
-  }
-  fusion_.update_baro(b);
-}
-
-void FlightStack::on_gps(const GpsSample& g) {
-  if (!screen_.accept(g)) return;
-  nav_.add_gps(g);
-  if (fusion_started_) fusion_.update_gps(g);
-}
-
 void FlightStack::on_platform_telemetry(const GpsSample& g) {
   // Not the vehicle's own GPS: the sample screen's GPS state must not see it. The controller
   // drops a non-finite message and counts it.
   controller_.on_platform_telemetry(g);
-}
-
-void FlightStack::on_ultrasonic(const UltrasonicSample& u) {
-  if (!screen_.accept(u)) return;
-  if (fusion_started_) fusion_.update_ultrasonic(u);
-}
-
-void FlightStack::on_mag(const MagSample& m) {
-  if (screen_.accept(m)) nav_.add_mag(m);
 }
 
 void FlightStack::on_vision(const VisionResult& vr) {
@@ -119,34 +226,17 @@ void FlightStack::on_vision(const VisionResult& vr) {
     pp.cy = vr.path->cy;
     controller_.on_path(pp);
   }
-  if (!screen_.accept(vr.obs)) return;
-  if (fusion_started_ && std::isfinite(vr.h_plane_m)) fusion_.update_vision(vr.obs.t_s, vr.h_plane_m);
-  controller_.on_vision(vr.obs);
+  if (est_.on_vision(vr.obs, vr.h_plane_m)) controller_.on_vision(vr.obs);
 }
 
-std::optional<ctl::RotorCommand> FlightStack::on_imu(const ImuSample& raw) {
+std::optional<ctl::RotorCommand> FlightStack::step_imu(const ImuSample& raw) {
   // A rejected sample is replaced by the last good one (zero-order hold).
-  const std::optional<ImuSample> screened = screen_.imu(raw);
-  if (!screened) return std::nullopt;
-  const ImuSample& s = *screened;
-  nav_.add_imu(s);
-  if (fusion_started_) {
-    fusion_.predict(s, nav_.state().q_WB, config_.estimator.navigation.gravity_mps2);
-    controller_.on_altitude(fusion_.estimate());
-  }
-  const NavState ns = nav_state();
+  const std::optional<ImuSample> s = est_.on_imu(raw);
+  if (!s) return std::nullopt;
+  if (est_.altitude_started()) controller_.on_altitude(est_.altitude());
+  const NavState ns = est_.nav_state();
   if (!ns.valid) return std::nullopt;
-  return controller_.step(s.t_s, ns, s);
-}
-
-// The GPS-only vertical channel follows the receiver's slowly varying height error (metres
-// with a degraded GPS: a hold on it drifts with the error); the fusion's height is anchored by
-// the barometer, the ultrasonic and vision.
-NavState FlightStack::nav_state() const {
-  if (config_.estimator.navigation.height_from_altitude_fusion && fusion_started_) {
-    return with_altitude(nav_.state(), fusion_.estimate());
-  }
-  return nav_.state();
+  return controller_.step(s->t_s, ns, *s);
 }
 
 }  // namespace lander::flight

@@ -93,7 +93,10 @@ TEST(MergePath, CampaignsWithoutARouteKeepTheirColumns) {
   EXPECT_FALSE(overall.contains("path_following"));
   const auto csv = lander::test::read_csv(dir + "/campaign.csv");
   EXPECT_EQ(std::count(csv.header.begin(), csv.header.end(), "path_covered"), 0);
-  EXPECT_EQ(csv.header.back(), "detail");
+  // ... detail, then who flew (flight software, version, plugin sha256), nothing after.
+  ASSERT_GE(csv.header.size(), 4u);
+  EXPECT_EQ(csv.header[csv.header.size() - 4], "detail");
+  EXPECT_EQ(csv.header.back(), "flight_plugin_sha256");
 }
 
 }  // namespace

@@ -200,6 +200,7 @@ struct Collector {
   void operator()(const char* k, std::vector<double>&, double = 1.0) { add(k, false); }
   void operator()(const char* k, Eigen::Vector2d&, double = 1.0) { add(k, false); }
   void operator()(const char* k, Eigen::Vector3d&, double = 1.0) { add(k, false); }
+  void operator()(const char* k, YAML::Node&) { add(k, false); }
   template <class P>
   void nested(const char* k, P& sub) {
     all->insert(prefix + k);

@@ -9,6 +9,8 @@
 #include <unistd.h>
 
 #include <filesystem>
+
+#include "lander/estimator/params_io.h"
 #include <iostream>
 #include <sstream>
 #include <thread>
@@ -31,6 +33,7 @@ const char* kUsage =
     "usage:\n"
     "  lander campaign run CAMPAIGN.yaml --out DIR [--jobs N] [--shard K/M] [--only ID,...]\n"
     "                      [--timeout-s S] [--retry-failed] [--no-report] [--no-progress]\n"
+    "                      [--flight-plugin LIB.so]\n"
     "  lander campaign report DIR\n"
     "  lander campaign slurm CAMPAIGN.yaml --out DIR [--runs-per-task R] [--throttle T]\n"
     "                        [--cpus-per-task C] [--partition P] [--time-min MIN]\n"
@@ -106,7 +109,7 @@ void print_campaign_merge(const campaign::MergeResult& m, const std::string& dir
 namespace {
 
 int cmd_run(const Args& rest) {
-  ArgParser a(rest, {"out", "jobs", "shard", "only", "timeout-s"},
+  ArgParser a(rest, {"out", "jobs", "shard", "only", "timeout-s", "flight-plugin"},
               {"retry-failed", "no-report", "no-progress"});
   if (a.positional().size() != 1 || !a.has("out")) throw UsageError(kUsage);
   campaign::RunnerOptions o;
@@ -119,7 +122,12 @@ int cmd_run(const Args& rest) {
   o.retry_failed = a.flag("retry-failed");
   o.progress = !a.flag("no-progress");
   // Everything is checked before the first run starts.
-  const Campaign c = Campaign::load(a.positional()[0]);
+  Campaign c = Campaign::load(a.positional()[0]);
+  // --flight-plugin: every run flies this plugin (the campaign file's flight_plugin replaced).
+  if (a.has("flight-plugin")) {
+    c.flight_plugin = fs::absolute(a.value("flight-plugin")).lexically_normal().string();
+    if (!fs::is_regular_file(c.flight_plugin)) throw ConfigError("--flight-plugin: no such file: " + c.flight_plugin);
+  }
   const auto plan = campaign::make_plan(c);
   campaign::write_plan(c, plan, o.out_dir);
   const campaign::RunnerResult r = campaign::run_campaign(c, plan, o);

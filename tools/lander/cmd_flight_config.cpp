@@ -28,6 +28,9 @@ int flight_config(const Args& args) {
   if (a.flag("defaults")) {
     node.remove("file");
     node.remove("target");
+    node.remove("plugin");  // which software flies, not one of its parameters
+    node.remove("python");
+    node.remove("plugin_config");
   }
   std::cout << yaml_to_string(node) << "\n";
   return kExitOk;

@@ -135,6 +135,8 @@ void print_summary(const json& r) {
   std::cout << fmt::format("lander regress: {} ({} runs) against the baseline {} ({} runs)\n",
                            cur.at("dir").get<std::string>(), cur.at("runs").get<int>(),
                            base.at("dir").get<std::string>(), base.at("runs").get<int>());
+  std::cout << fmt::format("  flight software: {} (current), {} (baseline)\n",
+                           cur.at("flight_software").get<std::string>(), base.at("flight_software").get<std::string>());
   std::cout << fmt::format("  thresholds: {}\n", r.at("thresholds").at("file").get<std::string>());
   std::cout << fmt::format(
       "  paired runs: {}; left out: {} only in the current campaign, {} only in the baseline\n",

@@ -1,27 +1,64 @@
 // `lander run SCENARIO.yaml --out DIR [--video] [--quiet] [--vision-schedule auto|serial|overlap]`
+#include <csignal>
+#include <cstdlib>
+#include <filesystem>
 #include <iostream>
+#include <vector>
 
 #include "command.h"
 #include "lander/sim/run.h"
+#include "lander/sim/util/process.h"
 
 namespace lander::cli {
 namespace {
 
+// Runs `python3 -m lander run ARGS` (LANDER_PYTHON names another interpreter; the package is
+// found in this build's python/ folder first) in this process's group, and ends with its exit
+// code: a signal that ends it ends this process the same way.
+int python_run(const Args& args) {
+  const char* py_env = std::getenv("LANDER_PYTHON");
+  const std::string python = py_env && *py_env ? py_env : "/usr/bin/python3";
+  std::vector<std::string> argv = {python, "-m", "lander", "run"};
+  argv.insert(argv.end(), args.begin(), args.end());
+  const char* old = std::getenv("PYTHONPATH");
+  sim::SpawnOptions so;
+  so.env = {"PYTHONPATH=" + std::string(LANDER_PYTHON_DIR) + (old && *old ? ":" + std::string(old) : "")};
+  std::cout.flush();
+  sim::ChildProcess child = [&] {
+    try {
+      return sim::ChildProcess::spawn(argv, so);
+    } catch (const std::runtime_error& e) {
+      throw ConfigError(std::string("flight.python: ") + e.what() + "; set LANDER_PYTHON to a python3");
+    }
+  }();
+  const sim::ExitStatus st = child.wait();
+  if (st.signaled) {
+    signal(st.signal, SIG_DFL);
+    raise(st.signal);
+  }
+  return st.code;
+}
+
 int run(const Args& args) {
-  ArgParser a(args, {"out", "seed", "record-vision", "replay-vision", "save-frames", "vision-schedule"}, {"video", "quiet"});
+  ArgParser a(args, {"out", "seed", "record-vision", "replay-vision", "save-frames", "vision-schedule", "flight-plugin"},
+              {"video", "quiet"});
   if (a.positional().size() != 1) {
     throw UsageError(
         "usage: lander run SCENARIO.yaml --out DIR [--seed N] [--video] [--quiet] "
         "[--record-vision FILE | --replay-vision FILE] [--save-frames DIR] "
-        "[--vision-schedule auto|serial|overlap]");
+        "[--vision-schedule auto|serial|overlap] [--flight-plugin LIB.so]");
   }
   if (a.has("record-vision") && a.has("replay-vision")) {
     throw UsageError("--record-vision and --replay-vision exclude each other");
   }
   if (!a.has("out")) throw UsageError("missing --out DIR");
   sim::Scenario s = sim::Scenario::load(a.positional()[0]);
+  // A flight software written in Python flies in the Python package: the same command there.
+  if (!s.flight.python.empty() && !a.has("flight-plugin")) return python_run(args);
   // --seed replaces the scenario's seed (written to scenario.resolved.yaml).
   s.seed = static_cast<std::uint64_t>(a.integer("seed", static_cast<long long>(s.seed), 0));
+  // --flight-plugin replaces the scenario's flight.plugin (a relative path from here).
+  if (a.has("flight-plugin")) s.flight.plugin = std::filesystem::absolute(a.value("flight-plugin")).lexically_normal().string();
   sim::RunOptions o;
   o.out_dir = a.value("out");
   o.video = a.flag("video");
@@ -43,7 +80,8 @@ int run(const Args& args) {
 
 const LanderCommand reg("run",
                         "run SCENARIO.yaml --out DIR [--seed N] [--video] [--quiet] "
-                        "[--record-vision F | --replay-vision F] [--save-frames DIR] [--vision-schedule S]: run one scenario",
+                        "[--record-vision F | --replay-vision F] [--save-frames DIR] [--vision-schedule S] "
+                        "[--flight-plugin LIB.so]: run one scenario (with a plugin's flight software)",
                         Kind::Command, run);
 
 }  // namespace

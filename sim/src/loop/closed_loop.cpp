@@ -1,5 +1,6 @@
-// The closed loop (DESIGN.md, "The loop"): the plant, the sensor rig, the flight stack and the
-// recorder on one deterministic fixed-step scheduler (physics 1 kHz by default).
+// The closed loop (docs/design/architecture.md, "The loop"): the plant, the sensor rig, the
+// flight software and the recorder on one deterministic fixed-step scheduler (physics 1 kHz
+// by default).
 //
 // Per physics step at time t: the camera renders what falls at t and, when an exposure ends,
 // the flight stack's detector processes the frame, whose result is delivered after the
@@ -7,8 +8,9 @@
 // at the latest: see VisionStage); the plant steps with the rotor command; the sensors sample the new
 // truth and transmit (after their latencies); everything delivered reaches the flight stack,
 // whose controller's inner loop runs on each IMU sample and sets the rotor command; the
-// recorder judges and logs. The flight stack is built from the scenario's `flight:` section
-// only and never sees the plant's parameters or the truth.
+// recorder judges and logs. The flight software (ours, FlightStack, or a plugin's) is built
+// from the scenario's `flight:` section only, never sees the plant's parameters or the truth,
+// and is reached through the seam only (flight/include/lander/flight/flight_software.h).
 #include <algorithm>
 #include <chrono>
 #include <condition_variable>
@@ -22,7 +24,6 @@
 
 #include <fmt/format.h>
 
-#include "lander/estimator/altitude_vision.h"
 #include "lander/flight/flight_stack.h"
 #include "lander/sim/loop.h"
 #include "lander/sim/loop/vision_log.h"
@@ -41,12 +42,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-// CPU time of the calling thread (ms): what `lander bench estimator` reports for the detector.
-double thread_cpu_ms() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
 }
 
 // Scenario fault keys that act on the sensors' physics (seed 004's robustness tests).
@@ -70,19 +65,32 @@ void corrupt_on_the_wire(const FaultParams& F, double t, SensorSuite::Sampled& s
   }
 }
 
+// A vision fault the flight software cannot take: the run's configuration is wrong.
+void inject_or_refuse(flight::FrameJob& job, const flight::VisionFault& f, const char* key,
+                      const flight::FlightSoftware& fs) {
+  if (!job.inject(f)) {
+    throw ConfigError(fmt::format("invalid value for '{}': the flight software '{}' takes no injected vision "
+                                  "faults (its frame results carry no pose the simulator can move)",
+                                  key, fs.info().name));
+  }
+}
+
 // Injected vision outliers (faults.vision_outlier_*): from the first detection at or after
 // the start time, that many detections have their pose pushed along the optical axis.
 class VisionOutliers {
  public:
   explicit VisionOutliers(const FaultParams& F) : F_(F) {}
-  bool apply(double t_mid, RingDetection& det) {
+  bool apply(double t_mid, bool detected, flight::FrameJob& job, const flight::FlightSoftware& fs) {
     if (F_.vision_outlier_t_s >= 0 && t_mid >= F_.vision_outlier_t_s && left_ == 0 &&
         F_.vision_outlier_frames > 0 && !started_) {
       left_ = F_.vision_outlier_frames;
       started_ = true;
     }
-    if (!det.detected || left_ == 0) return false;
-    det.X_CP.translation().z() += F_.vision_outlier_m;
+    if (!detected || left_ == 0) return false;
+    flight::VisionFault f;
+    f.kind = flight::VisionFault::Kind::kOffsetAlongAxis;
+    f.offset_m = F_.vision_outlier_m;
+    inject_or_refuse(job, f, "faults.vision_outlier_m", fs);
     --left_;
     return true;
   }
@@ -94,31 +102,34 @@ class VisionOutliers {
 };
 
 // One camera frame's vision work: the frame, what the recorder captured at its exposure end,
-// and what the flight software's vision computes from the frame alone.
+// and the flight software's job for it (FrameJob::process: from the frame alone).
 struct VisionJob {
   CameraFrame frame;
   Recorder::FrameCapture capture;
-  bool run_path{false};
-  Eigen::Vector2d blur_px{Eigen::Vector2d::Zero()};  ///< the flight software's predicted blur
-  RingDetection det;
-  std::optional<PathObservation> path;
-  double proc_ms{0};                    ///< wall time of the whole stage
-  double detect_ms{0}, path_ms{0};      ///< wall time of the ring detector, of the path stage
-  double detect_cpu_ms{0};              ///< the ring detector's thread CPU time
+  std::unique_ptr<flight::FrameJob> work;
+  double proc_ms{0};                    ///< wall time of FrameJob::process
 };
 
-// The estimator's vision stage of the loop. The detector (and the path stage) depend only on
-// the frame and the detector's own state (frames in order), never on the filters or the
-// controller, whose state moves on meanwhile. So frame k's detection can run on a worker
+// A processed frame waiting for its delivery time, or (change indication) a recorded result.
+struct Delivery {
+  std::unique_ptr<flight::FrameJob> work;
+  cv::Mat pixels;                          ///< the frame's image, alive until delivered
+  bool detected{false};                    ///< what the flight software is told (trace.csv)
+  std::optional<flight::VisionResult> recorded;
+};
+
+// The flight software's vision stage of the loop. A frame's job depends only on the frame and
+// the state only frame jobs use (flight_software.h, "Threading"), never on the filters or the
+// controller, whose state moves on meanwhile. So frame k's processing can run on a worker
 // thread while the main thread steps the plant, samples the sensors and renders frame k + 1,
-// as long as its result is joined (a) before the detector takes the next frame and (b) no
-// later than the physics step at which it is delivered. The result then enters the delivery
-// queue at the same instant, in the same order, as in the serial schedule: the outputs are
-// the same bit for bit. Only the detector's own calls run on the worker; everything else
-// (outlier hooks, the recorder, the queue) runs on the main thread at the join, in frame order.
+// as long as it is joined (a) before the next frame's job begins and (b) no later than the
+// physics step at which its result is delivered. The result then enters the delivery queue at
+// the same instant, in the same order, as in the serial schedule: the outputs are the same bit
+// for bit. Only FrameJob::process runs on the worker; everything else (fault hooks, the
+// recorder, the queue) runs on the main thread at the join, in frame order.
 class VisionStage {
  public:
-  VisionStage(flight::FlightStack& flight, bool overlap) : flight_(flight), overlap_(overlap) {
+  explicit VisionStage(bool overlap) : overlap_(overlap) {
     // One worker for the whole run (not a thread per frame): the detector's per-thread scratch
     // buffers stay allocated from frame to frame, as on the loop's thread in the serial
     // schedule. Results never depend on which thread ran them (vision_determinism_test.cpp).
@@ -174,17 +185,9 @@ class VisionStage {
   }
 
  private:
-  void run(VisionJob& j) {
+  static void run(VisionJob& j) {
     const auto t0 = Clock::now();
-    const double c0 = thread_cpu_ms();
-    j.det = flight_.detect(j.frame.bgr, j.blur_px);
-    j.detect_cpu_ms = thread_cpu_ms() - c0;
-    j.detect_ms = ms_since(t0);
-    if (j.run_path) {
-      const auto t1 = Clock::now();
-      j.path = flight_.detect_path(j.frame.bgr, j.frame.exposure.mid());
-      j.path_ms = ms_since(t1);
-    }
+    j.work->process();
     j.proc_ms = ms_since(t0);
   }
   void work() {
@@ -211,7 +214,6 @@ class VisionStage {
     }
   }
 
-  flight::FlightStack& flight_;
   const bool overlap_;
   bool pending_ = false;
   double deliver_t_ = 0;
@@ -252,7 +254,8 @@ std::unique_ptr<CsvWriter> open_vision_profile(const RunOptions& o) {
 
 // The parts of the loop and the steps that tie them together (ClosedLoop::run).
 struct ClosedLoop::Impl {
-  Impl(const Scenario& scenario, const RunOptions& options, World& w, Renderer* r)
+  Impl(const Scenario& scenario, const RunOptions& options, World& w, Renderer* r,
+       std::unique_ptr<flight::FlightSoftware> fs)
       : s(scenario),
         o(options),
         world(w),
@@ -261,21 +264,31 @@ struct ClosedLoop::Impl {
         plant(s, world),
         sensors(s.sensors, s.seed),
         camera(s.camera, derive_seed(s.seed, "camera"), dt),
-        flight(s.flight),
+        flight_owner(std::move(fs)),
+        flight(*flight_owner),
+        builtin(dynamic_cast<flight::FlightStack*>(flight_owner.get())),
         recorder(s, o, world, renderer),
         outliers(s.faults),
         replay(!o.replay_vision.empty()),
-        vision(flight, !replay && overlap_vision(s, o)),
+        vision(!replay && overlap_vision(s, o)),
         profile(open_vision_profile(o)),
         outcome{"timeout", fmt::format("no landing within duration_s = {:.1f} s", s.duration_s)},
         n_steps(static_cast<int>(std::floor(s.duration_s / dt + 0.5))),
         n_judge(static_cast<int>(std::floor(kTouchdownJudgement_s / dt + 0.5))) {
     schedule_sensor_faults(s.faults, sensors);
-    // What the flight software was built from, beside the resolved scenario (the plant's truth).
-    write_file_atomic(o.out_dir + "/flight.resolved.yaml", yaml_to_string(params_to_yaml(flight.config())));
+    // Recording and replaying vision results (the change indication) is our stack's: its
+    // results are a type the simulator knows (flight::VisionResult).
+    if ((replay || !o.record_vision.empty()) && !builtin) {
+      throw ConfigError("recording or replaying vision results needs the builtin flight software");
+    }
     // Recorded vision (change indication): delivered at the recorded times, nothing rendered.
     if (replay) {
-      for (const VisionLogEntry& e : read_vision_log(o.replay_vision)) vision_q.push(e.result, e.deliver_t_s);
+      for (const VisionLogEntry& e : read_vision_log(o.replay_vision)) {
+        Delivery d;
+        d.detected = e.result.obs.detected;
+        d.recorded = e.result;
+        vision_q.push(std::move(d), e.deliver_t_s);
+      }
     }
     w_cmd.fill(plant.hover_speed_radps());
   }
@@ -284,7 +297,7 @@ struct ClosedLoop::Impl {
   // the motors to touch down, up to kTouchdownJudgement_s more for the judge to see it rest.
   bool running(int k) {
     if (k < n_steps) return true;
-    if (k >= n_steps + n_judge || !flight.controller().diagnostics().motors_cut) return false;
+    if (k >= n_steps + n_judge || !flight.status().motors_cut) return false;
     if (k == n_steps) {
       outcome.detail = fmt::format("motors cut before duration_s = {:.1f} s, but not resting on the platform "
                                    "for 1 s within {:.1f} s after it",
@@ -304,12 +317,19 @@ struct ClosedLoop::Impl {
     if (vision.pending()) finish_vision();
     VisionJob job;
     job.capture = recorder.capture_frame(*frame, flight);
-    // The path stage (seed 003) runs only while the flight software can use it.
-    job.run_path = flight.wants_path();
-    // Predicted here, on the loop's thread, from the state the flight software has when the
-    // frame arrives: the same in the serial and the overlapped schedule.
-    job.blur_px = flight.predicted_blur_px(frame->exposure);
+    // Begun here, on the loop's thread, with the state the flight software has when the frame
+    // arrives: the same in the serial and the overlapped schedule.
     job.frame = std::move(*frame);
+    if (o.step_observer) {
+      observed_frame = job.frame;  // a header: the pixels are shared, not copied
+      frame_this_step = true;
+    }
+    flight::CameraFrameIn in;
+    in.index = job.frame.index;
+    in.exposure = job.frame.exposure;
+    in.stamp_s = job.frame.exposure.t_end_s;
+    in.image = {job.frame.bgr.cols, job.frame.bgr.rows, static_cast<int>(job.frame.bgr.step[0]), job.frame.bgr.data};
+    job.work = flight.begin_frame(in);
     const double t_end = job.frame.exposure.t_end_s;
     vision.submit(std::move(job), t_end + s.computer.vision_latency_s);
     if (!vision.overlapped()) finish_vision();
@@ -347,14 +367,18 @@ struct ClosedLoop::Impl {
     for (const BaroSample& b : in.baro) flight.on_baro(b);
     for (const GpsSample& g : in.gps) flight.on_gps(g);
     for (const UltrasonicSample& u : in.ultrasonic) flight.on_ultrasonic(u);
-    for (const flight::VisionResult& vr : vision_q.pop_ready(tn)) {
-      recorder.on_vision_delivered(vr);
-      flight.on_vision(vr);
+    for (Delivery& d : vision_q.pop_ready(tn)) {
+      recorder.on_vision_delivered(d.detected);
+      if (d.recorded) {
+        builtin->on_vision(*d.recorded);
+      } else {
+        flight.deliver_frame(std::move(d.work));
+      }
     }
     for (const MagSample& m : in.magnetometer) flight.on_mag(m);
     for (const GpsSample& g : in.platform_telemetry) flight.on_platform_telemetry(g);
     for (const ImuSample& imu : in.imu) {
-      if (const auto cmd = flight.on_imu(imu)) {
+      if (const std::optional<flight::RotorSpeeds> cmd = flight.on_imu(imu)) {
         for (int r = 0; r < kNumRotors; ++r) w_cmd[r] = cmd->w_radps[r];
       }
     }
@@ -369,47 +393,63 @@ struct ClosedLoop::Impl {
       return true;
     }
     if (o.progress && k % 5000 == 0) {
-      std::cerr << fmt::format("\rt = {:.1f} s  mode {}            ", tn, ctl::to_string(flight.controller().mode()))
+      std::cerr << fmt::format("\rt = {:.1f} s  mode {}            ", tn, flight.status().mode)
                 << std::flush;
     }
     return false;
   }
 
-  // A finished detection, in frame order on the main thread: outlier hook, the result to
-  // deliver, the recorder, the delivery queue.
+  // A stepping caller's look after the step (RunOptions::step_observer).
+  void observe(double tn) {
+    if (!o.step_observer) return;
+    o.step_observer(StepView{tn, &world, &plant.truth(), frame_this_step ? &observed_frame : nullptr});
+    frame_this_step = false;
+  }
+
+  // A processed frame, in frame order on the main thread: the outlier hook, the recorder,
+  // the NaN-pose hook, the delivery queue.
   void finish_vision() {
     VisionJob j = vision.take(&res.vision_wait_ms);
     res.estimator_ms += j.proc_ms;
-    res.detector_ms += j.detect_ms;
-    res.detector_cpu_ms += j.detect_cpu_ms;
-    res.path_stage_ms += j.path_ms;
-    if (profile) write_profile_row(j);
     const double t_mid = j.frame.exposure.mid();
-    if (outliers.apply(t_mid, j.det)) recorder.count_outlier_injected();
-    flight::VisionResult vr = flight.vision_result(j.det, t_mid);
-    vr.path = std::move(j.path);
-    recorder.on_frame(j.frame, j.capture, j.det, vr);
+    flight::FrameReport rep = j.work->report();
+    if (profile) write_profile_row(j, rep);
+    if (outliers.apply(t_mid, rep.detected, *j.work, flight)) {
+      recorder.count_outlier_injected();
+      rep = j.work->report();
+    }
+    res.detector_ms += rep.detector_ms;
+    res.detector_cpu_ms += rep.detector_cpu_ms;
+    res.path_stage_ms += rep.path_ms;
+    recorder.on_frame(j.frame, j.capture, rep);
+    Delivery d;
+    d.detected = rep.detected;
     if (fault_active(t_mid, s.faults.nan_vision_t_s, s.faults.nan_vision_duration_s)) {
-      corrupt_observation(vr.obs);  // test hook: a "detection" with a NaN pose
-      vr.h_plane_m = height_above_target_m(vr.obs.X_CP, flight.mount().X_BC());
+      // Test hook: a "detection" with a NaN pose.
+      inject_or_refuse(*j.work, {flight::VisionFault::Kind::kNanPose, 0.0}, "faults.nan_vision_t_s", flight);
+      d.detected = true;
     }
     const double latency = s.computer.measured_latency ? j.proc_ms * 1e-3 : s.computer.vision_latency_s;
     const double deliver_t = j.frame.exposure.t_end_s + latency;
-    vision_q.push(vr, deliver_t);
-    if (!o.record_vision.empty()) vision_log.push_back({j.frame.index, deliver_t, vr});
+    if (!o.record_vision.empty()) {
+      vision_log.push_back({j.frame.index, deliver_t, static_cast<const flight::RingFrameJob&>(*j.work).result()});
+    }
+    d.pixels = j.frame.bgr;
+    d.work = std::move(j.work);
+    vision_q.push(std::move(d), deliver_t);
   }
 
-  void write_profile_row(const VisionJob& j) {
+  void write_profile_row(const VisionJob& j, const flight::FrameReport& r) {
+    const auto* ring = dynamic_cast<const flight::RingFrameJob*>(j.work.get());
+    const double blur = ring ? ring->predicted_blur_px().norm() : std::numeric_limits<double>::quiet_NaN();
     profile->integer(j.frame.index).num(j.frame.exposure.mid(), 4).num(j.capture.z_mid_m - j.capture.platform_z_m, 3);
-    profile->integer(j.det.detected ? 1 : 0).text(to_string(j.det.status)).integer(j.det.used_roi ? 1 : 0);
-    profile->integer(j.det.code_searched ? 1 : 0).integer(static_cast<long long>(j.det.centres.size()));
-    profile->num(j.blur_px.norm(), 2).integer(j.det.deblurred ? 1 : 0);
+    profile->integer(r.detected ? 1 : 0).text(r.reason).integer(r.used_roi ? 1 : 0);
+    profile->integer(r.code_searched ? 1 : 0).integer(r.rings);
+    profile->num(blur, 2).integer(r.deblurred ? 1 : 0);
     // The detection's camera height above the target (compare with height_m, the truth).
-    profile->num(j.det.detected ? height_above_target_m(j.det.X_CP, flight.mount().X_BC())
-                                : std::numeric_limits<double>::quiet_NaN(),
-                 4);
-    profile->num(j.detect_ms, 3).num(j.detect_cpu_ms, 3).num(j.path_ms, 3);
-    profile->integer(j.det.zoomed ? 1 : 0).integer(j.det.by_layout ? 1 : 0);
+    profile->num(r.vision_height_m, 4);
+    profile->num(r.detector_ms, 3).num(r.detector_cpu_ms, 3).num(r.path_ms, 3);
+    profile->integer(r.zoomed ? 1 : 0).integer(r.by_layout ? 1 : 0);
     profile->end_row();
   }
 
@@ -438,23 +478,31 @@ struct ClosedLoop::Impl {
   Plant plant;                // MuJoCo world, rotors, ground effect, wind, cart
   SensorSuite sensors;        // IMU, barometer, GPS, ultrasonic, magnetometer, telemetry
   CameraRig camera;           // exposures, renders (motion blur), image noise
-  flight::FlightStack flight; // estimator + controller, from the flight configuration only
+  // The flight software, from the flight configuration only (declared before everything
+  // that holds its frame jobs: a plugin's code must outlive them).
+  std::unique_ptr<flight::FlightSoftware> flight_owner;
+  flight::FlightSoftware& flight;
+  flight::FlightStack* builtin;  // ours, when it flies built in (vision record and replay)
   Recorder recorder;          // trace, metrics, judge, summary, video
   VisionOutliers outliers;
   const bool replay;
-  DelayQueue<flight::VisionResult> vision_q;  // results waiting for their delivery time
+  DelayQueue<Delivery> vision_q;  // results waiting for their delivery time
   std::vector<VisionLogEntry> vision_log;
   LoopResult res;
   VisionStage vision;         // the detector, on a worker thread when the schedule allows
   std::unique_ptr<CsvWriter> profile;
   RotorArray w_cmd;
+  CameraFrame observed_frame;   // the frame of this step, for the step observer
+  bool frame_this_step{false};
   Outcome outcome;
   const int n_steps, n_judge;
 };
 
-ClosedLoop::ClosedLoop(const Scenario& s, const RunOptions& o, World& world, Renderer* renderer) {
+ClosedLoop::ClosedLoop(const Scenario& s, const RunOptions& o, World& world, Renderer* renderer,
+                       std::unique_ptr<flight::FlightSoftware> flight) {
   if (o.replay_vision.empty() && renderer == nullptr) throw std::logic_error("ClosedLoop: no renderer");
-  impl_ = std::make_unique<Impl>(s, o, world, renderer);
+  if (!flight) throw std::logic_error("ClosedLoop: no flight software");
+  impl_ = std::make_unique<Impl>(s, o, world, renderer, std::move(flight));
 }
 
 ClosedLoop::~ClosedLoop() = default;
@@ -469,6 +517,7 @@ LoopResult ClosedLoop::run(Json& summary) {
     if (!L.plant_step(k)) break;             // rotor command in, physics to tn
     L.flight_step(tn);                       // sensors and vision results -> flight stack
     if (L.judged_over(k, tn)) break;         // recorder: trace, metrics, outcome
+    L.observe(tn);                           // a stepping caller's look (lander.Sim)
   }
   return L.finish(wall0, summary);
 }

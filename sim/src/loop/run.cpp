@@ -12,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "lander/sim/loop.h"
+#include "lander/sim/loop/flight_factory.h"
 #include "lander/sim/loop/vision_log.h"
 #include "lander/sim/util/output_files.h"
 #include "lander/sim/plant/plant.h"
@@ -155,6 +156,21 @@ void run_kinematic(const Scenario& s, const RunOptions& o, World& world, Rendere
   write_json_file(o.out_dir + "/performance.json", perf);
 }
 
+// flight_software.json: who flies (the seam's info) and from where (builtin, or a plugin's
+// file with its sha256).
+Json flight_software_json(const flight::FlightSoftware& fs, const Scenario& s) {
+  const flight::FlightSoftwareInfo who = fs.info();
+  const flight::FlightSoftwareSource src = flight_software_source(s);
+  Json j;
+  j["name"] = who.name;
+  j["version"] = who.version;
+  j["source"] = src.kind;
+  j["plugin"] = src.plugin_path.empty() ? Json(nullptr) : Json(src.plugin_path);
+  j["plugin_sha256"] = src.plugin_sha256.empty() ? Json(nullptr) : Json(src.plugin_sha256);
+  j["api_version"] = flight::kFlightSoftwareApiVersion;
+  return j;
+}
+
 }  // namespace
 
 void preflight(const Scenario& s, const RunOptions& o) {
@@ -194,9 +210,19 @@ Json run_scenario(const Scenario& s, const RunOptions& o) {
   const bool needs_renderer = s.vehicle.control == "kinematic" || o.replay_vision.empty() || o.video;
   std::unique_ptr<Renderer> renderer;
   if (needs_renderer) renderer = std::make_unique<Renderer>(world.model(), s.render);
+  // The flight software before any output: a plugin that cannot be loaded or created is a bad
+  // input (PluginError, a ConfigError), with nothing written.
+  std::unique_ptr<flight::FlightSoftware> flight;
+  if (s.vehicle.control == "closed_loop") flight = o.flight_factory ? o.flight_factory(s) : make_flight_software(s);
   make_dirs(o.out_dir);
   if (!o.save_frames_dir.empty()) make_dirs(o.save_frames_dir);
   write_file_atomic(o.out_dir + "/scenario.resolved.yaml", yaml_to_string(params_to_yaml(s)));
+  if (flight) {
+    // What the flight software was built from, beside the resolved scenario (the plant's
+    // truth), and where it came from.
+    write_file_atomic(o.out_dir + "/flight.resolved.yaml", yaml_to_string(params_to_yaml(s.flight)));
+    write_json_file(o.out_dir + "/flight_software.json", flight_software_json(*flight, s));
+  }
   Json summary = Json::object();
   summary["schema_version"] = kSummarySchemaVersion;
   summary["scenario"] = s.name;
@@ -207,7 +233,7 @@ Json run_scenario(const Scenario& s, const RunOptions& o) {
     if (s.vehicle.control == "kinematic") {
       run_kinematic(s, o, world, *renderer, summary);
     } else {
-      const LoopResult r = ClosedLoop(s, o, world, renderer.get()).run(summary);
+      const LoopResult r = ClosedLoop(s, o, world, renderer.get(), std::move(flight)).run(summary);
       Json perf;
       perf["sim_seconds"] = r.sim_s;
       perf["wall_seconds"] = r.wall_s;

@@ -59,9 +59,10 @@ Scenario Scenario::defaults() {
   return s;
 }
 
-Scenario Scenario::load(const std::string& path) {
+Scenario Scenario::load(const std::string& path) { return load_node(load_yaml_file(path), path); }
+
+Scenario Scenario::load_node(const YAML::Node& root, const std::string& path) {
   Scenario s = defaults();
-  const YAML::Node root = load_yaml_file(path);
   // The flight parameter file first (flight.file), then the scenario's keys on top of it.
   std::string flight_file = flight::resolve_flight_file("", path);
   if (root.IsMap() && root["flight"] && root["flight"].IsMap() && root["flight"]["file"]) {
@@ -87,8 +88,11 @@ Scenario Scenario::load(const std::string& path) {
       }
     }
   }
+  const std::string plugin_before = s.flight.plugin, python_before = s.flight.python;  // from flight.file
   read_params(root, path, s);
   s.flight.file = flight_file;
+  if (s.flight.plugin != plugin_before) s.flight.plugin = flight::resolve_plugin_path(s.flight.plugin, path);
+  if (s.flight.python != python_before) s.flight.python = flight::resolve_python_path(s.flight.python, path);
   return s;
 }
 

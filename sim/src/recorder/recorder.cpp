@@ -18,21 +18,25 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// Draws the detector's view on a (downscaled) camera frame.
-void draw_detection(cv::Mat& img, const RingDetection& det, double scale) {
-  for (const auto& e : det.ellipses) {
-    const cv::Scalar colour = e.ring_id >= 0 ? cv::Scalar(0, 220, 0) : cv::Scalar(0, 140, 255);
-    const cv::RotatedRect r(cv::Point2f(e.image.centre.x() * scale, e.image.centre.y() * scale),
-                            cv::Size2f(2 * e.image.a * scale, 2 * e.image.b * scale),
-                            static_cast<float>(e.image.angle_rad * 180.0 / M_PI));
+// Draws the flight software's overlays of one frame on a (downscaled) camera frame.
+void draw_overlays(cv::Mat& img, const flight::FrameReport& rep, double scale) {
+  for (const auto& e : rep.ellipses) {
+    const cv::Scalar colour = e.identified ? cv::Scalar(0, 220, 0) : cv::Scalar(0, 140, 255);
+    const cv::RotatedRect r(cv::Point2f(e.centre_px.x() * scale, e.centre_px.y() * scale),
+                            cv::Size2f(2 * e.a_px * scale, 2 * e.b_px * scale),
+                            static_cast<float>(e.angle_rad * 180.0 / M_PI));
     cv::ellipse(img, r, colour, 1, cv::LINE_AA);
   }
-  for (const auto& c : det.centres) {
-    const cv::Point p(static_cast<int>(c.centre_image_px.x() * scale),
-                      static_cast<int>(c.centre_image_px.y() * scale));
+  for (const auto& c : rep.points) {
+    const cv::Point p(static_cast<int>(c.px.x() * scale), static_cast<int>(c.px.y() * scale));
     cv::drawMarker(img, p, cv::Scalar(0, 0, 255), cv::MARKER_CROSS, 8, 1);
-    cv::putText(img, std::to_string(c.ring_id), p + cv::Point(4, -4), cv::FONT_HERSHEY_SIMPLEX,
-                0.45, cv::Scalar(0, 0, 255), 1, cv::LINE_AA);
+    cv::putText(img, c.label, p + cv::Point(4, -4), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 255), 1,
+                cv::LINE_AA);
+  }
+  // The route stage's candidate points (seed 003; undistorted pixels, drawn on the frame as
+  // delivered: exact for the default camera, which has no distortion).
+  for (const Eigen::Vector2d& p : rep.route_points_px) {
+    cv::circle(img, cv::Point2d(p.x() * scale, p.y() * scale), 4, cv::Scalar(255, 255, 0), 2, cv::LINE_AA);
   }
 }
 
@@ -52,8 +56,8 @@ LandingJudge::LandingJudge(const World& world)
       platform_geom_(geom_id(world.model(), "platform")),
       ground_geom_(geom_id(world.model(), "ground")) {}
 
-std::optional<Outcome> LandingJudge::update(double tn, const VehicleTruth& truth,
-                                            const ctl::LandingController& c) {
+std::optional<Outcome> LandingJudge::update(double tn, const VehicleTruth& truth, const flight::FlightStatus& st,
+                                            const flight::FlightSoftware& fs) {
   const mjModel* m = world_.model();
   const mjData* d = world_.data();
   const int vb = world_.vehicle_body();
@@ -82,11 +86,11 @@ std::optional<Outcome> LandingJudge::update(double tn, const VehicleTruth& truth
     touchdown_["rel_speed_mps"] = (truth.v_W_mps - v_platform).norm();
     touchdown_["rel_vertical_speed_mps"] = truth.v_W_mps.z() - v_platform.z();
     touchdown_["tilt_deg"] = tilt_to_platform_rad(truth.X_WB, X_WP) * 180.0 / M_PI;
-    touchdown_["mode_at_contact"] = ctl::to_string(c.mode());
+    touchdown_["mode_at_contact"] = st.mode;
   }
   if (on_ground) touched_ground_ = true;
   const double tilt_now = tilt_to_platform_rad(truth.X_WB, X_WP);
-  const bool resting = on_platform && !on_ground && c.diagnostics().motors_cut &&
+  const bool resting = on_platform && !on_ground && st.motors_cut &&
                        tilt_now < 20.0 * M_PI / 180.0;
   if (resting) {
     if (t_landed_confirm_ < 0) t_landed_confirm_ = tn;
@@ -103,10 +107,10 @@ std::optional<Outcome> LandingJudge::update(double tn, const VehicleTruth& truth
   if (t_landed_confirm_ >= 0 && tn - t_landed_confirm_ >= 1.0) {
     return Outcome{"landed", "resting on the platform with motors cut for 1 s"};
   }
-  if (c.aborted()) {
-    const ctl::LandingDecisionLog& dl = c.decision_log();
+  if (st.aborted) {
+    const flight::FlightReport r = fs.report();
     return Outcome{"aborted", fmt::format("the flight software aborted the landing at t = {:.2f} s after {} "
-                                          "attempts: {}", tn, dl.attempts, dl.reason)};
+                                          "attempts: {}", tn, r.attempts, r.decision_reason)};
   }
   return std::nullopt;
 }
@@ -139,7 +143,7 @@ Recorder::Recorder(const Scenario& s, const RunOptions& o, World& world, Rendere
   }
 }
 
-Recorder::FrameCapture Recorder::capture_frame(const CameraFrame& frame, const flight::FlightStack& fs) {
+Recorder::FrameCapture Recorder::capture_frame(const CameraFrame& frame, const flight::FlightSoftware& fs) {
   FrameCapture cap;
   // Truth at mid-exposure (the state now is the exposure end).
   cap.z_mid_m = world_.X_WB().translation().z() -
@@ -147,32 +151,32 @@ Recorder::FrameCapture Recorder::capture_frame(const CameraFrame& frame, const f
   cap.h_ray_m = world_.ray_distance(world_.X_WB().translation(), -Eigen::Vector3d::UnitZ());
   cap.platform_z_m = world_.X_WP().translation().z();
   if (!video_) return cap;
-  cap.mode = ctl::to_string(fs.controller().mode());
-  cap.altitude_started = fs.altitude_started();
-  cap.altitude = fs.altitude();
+  const flight::FlightStatus st = fs.status();
+  cap.mode = st.mode;
+  cap.altitude_started = st.altitude_valid;
+  cap.altitude = st.altitude;
   renderer_->render_free(world_.model(), world_.data(), chase_camera(world_, s_.video), s_.video.chase_width_px,
                          s_.video.chase_height_px, cap.chase);
   return cap;
 }
 
-void Recorder::on_frame(const CameraFrame& frame, const FrameCapture& cap, const RingDetection& det,
-                        const flight::VisionResult& vr) {
+void Recorder::on_frame(const CameraFrame& frame, const FrameCapture& cap, const flight::FrameReport& rep) {
   ++frames_;
-  if (det.detected) {
+  if (rep.detected) {
     ++detections_;
-    if (det.deblurred) ++detections_deblurred_;
-    if (det.unfiltered) ++detections_unfiltered_;
-    if (det.zoomed) ++detections_zoomed_;
-    if (det.by_layout) ++detections_by_layout_;
-    if (det.by_platform) ++detections_by_platform_;
-    if (det.keyframe) ++keyframes_;
-    if (det.keyframe_status == KeyframeStatus::Rejected) ++keyframes_rejected_;
+    if (rep.deblurred) ++detections_deblurred_;
+    if (rep.unfiltered) ++detections_unfiltered_;
+    if (rep.zoomed) ++detections_zoomed_;
+    if (rep.by_layout) ++detections_by_layout_;
+    if (rep.by_platform) ++detections_by_platform_;
+    if (rep.keyframe) ++keyframes_;
+    if (rep.keyframe_rejected) ++keyframes_rejected_;
   } else {
-    ++not_detected_reasons_[to_string(det.status)];
+    ++not_detected_reasons_[rep.reason];
   }
   const double t_mid = frame.exposure.mid();
-  if (det.detected && det.keyframe && std::isfinite(vr.h_plane_m)) {
-    alt_metrics_.add("vision", vr.h_plane_m - (cap.z_mid_m - cap.platform_z_m),
+  if (rep.detected && rep.keyframe && std::isfinite(rep.vision_height_m)) {
+    alt_metrics_.add("vision", rep.vision_height_m - (cap.z_mid_m - cap.platform_z_m),
                      cap.h_ray_m > 0 ? cap.h_ray_m : cap.z_mid_m);
   }
   if (!video_) return;
@@ -181,16 +185,10 @@ void Recorder::on_frame(const CameraFrame& frame, const FrameCapture& cap, const
   cv::resize(frame.bgr, small, cv::Size(video_w_, video_h_), 0, 0, cv::INTER_AREA);
   if (s_.video.overlays) {
     const double scale = static_cast<double>(video_w_) / cam.width_px;
-    draw_detection(small, det, scale);
-    // The path stage's candidate points (seed 003; undistorted pixels, drawn on the frame as
-    // delivered: exact for the default camera, which has no distortion).
-    if (vr.path) {
-      for (const Eigen::Vector2d& p : vr.path->points_px) {
-        cv::circle(small, cv::Point2d(p.x() * scale, p.y() * scale), 4, cv::Scalar(255, 255, 0), 2, cv::LINE_AA);
-      }
-    }
+    draw_overlays(small, rep, scale);
     put_text(small, fmt::format("t {:.2f} s   mode {}{}", t_mid, cap.mode,
-                                vr.path ? fmt::format("   route points {}", vr.path->points_px.size()) : std::string()),
+                                rep.route_searched ? fmt::format("   route points {}", rep.route_points_px.size())
+                                                   : std::string()),
              0);
     if (cap.altitude_started) {
       const AltitudeEstimate& a = cap.altitude;
@@ -198,11 +196,7 @@ void Recorder::on_frame(const CameraFrame& frame, const FrameCapture& cap, const
     } else {
       put_text(small, "fused height: no estimate yet", 1);
     }
-    put_text(small,
-             det.detected ? fmt::format("rings {}  reproj {:.2f} px  rho {:.4f}{}", det.centres.size(),
-                                        det.reproj_err_px, det.rho, det.keyframe ? "" : "  (not a keyframe)")
-                          : std::string("no target: ") + to_string(det.status),
-             2);
+    put_text(small, rep.overlay_text, 2);
   }
   cam_video_->write(small);
   cv::Mat chase = cap.chase;
@@ -230,11 +224,12 @@ void Recorder::on_samples(const SensorSuite::Sampled& smp, const VehicleTruth& t
   }
 }
 
-std::optional<Outcome> Recorder::on_step(int k, const VehicleTruth& truth, const flight::FlightStack& fs,
+std::optional<Outcome> Recorder::on_step(int k, const VehicleTruth& truth, const flight::FlightSoftware& fs,
                                          const RotorArray& rotor_speeds_radps) {
   const double tn = truth.t_s;
-  const bool alt_started = fs.altitude_started();
-  const AltitudeEstimate a = fs.altitude();
+  const flight::FlightStatus st = fs.status();
+  const bool alt_started = st.altitude_valid;
+  const AltitudeEstimate& a = st.altitude;
   if (alt_started) {
     fused_z_err_.add(a.z_W_m - truth.X_WB.translation().z());
     if (k % 10 == 0) {  // 100 Hz, the rate of the fastest height sensor
@@ -243,13 +238,12 @@ std::optional<Outcome> Recorder::on_step(int k, const VehicleTruth& truth, const
     }
     if (std::isfinite(truth.h_surface_m)) fused_h_err_.add(a.h_surface_m - truth.h_surface_m);
   }
-  const ctl::LandingController& c = fs.controller();
-  if (std::optional<Outcome> out = judge_.update(tn, truth, c)) return out;
+  if (std::optional<Outcome> out = judge_.update(tn, truth, st, fs)) return out;
   // The route's end, reached and held (seed 003): the run is over.
   constexpr double kRouteEndHold_s = 3.0;  // long enough to show the hold is stable
-  if (c.route_ended() && tn - c.route_end_t() >= kRouteEndHold_s) {
+  if (st.route_ended && tn - st.route_end_t_s >= kRouteEndHold_s) {
     return Outcome{"route_end", fmt::format("the end of the route was reached at t = {:.2f} s and held for "
-                                            "{:.0f} s; no target found", c.route_end_t(), kRouteEndHold_s)};
+                                            "{:.0f} s; no target found", st.route_end_t_s, kRouteEndHold_s)};
   }
   // Cross-track error at 100 Hz while following the route, until it is covered (the vehicle's
   // ground point within kCovered_m of the route's end by arc length).
@@ -257,7 +251,7 @@ std::optional<Outcome> Recorder::on_step(int k, const VehicleTruth& truth, const
   // ground (60 px at 4 m: 0.375 m) before the end, plus the hold's drift.
   constexpr double kCovered_m = 0.5;
   const RouteGeometry& route = world_.route();
-  if (!route.empty() && k % 10 == 0 && path_covered_t_ < 0 && c.mode() == ctl::Mode::kFollowPath) {
+  if (!route.empty() && k % 10 == 0 && path_covered_t_ < 0 && st.following_route) {
     if (path_t0_ < 0) path_t0_ = tn;
     double s_on = 0;
     cross_track_m_.push_back(route.distance(truth.X_WB.translation().head<2>(), &s_on));
@@ -265,8 +259,8 @@ std::optional<Outcome> Recorder::on_step(int k, const VehicleTruth& truth, const
     if (s_on >= route.length() - kCovered_m) path_covered_t_ = tn;
   }
   if (k % trace_every_ != 0) return std::nullopt;
-  const NavState ns = fs.nav_state();
-  const auto& dg = c.diagnostics();
+  const flight::FlightTelemetry tm = fs.telemetry();
+  const NavState& ns = tm.nav;
   const Eigen::Isometry3d X_WP = world_.X_WP();
   const Eigen::Vector3d rpy = rpy_of(truth.X_WB.linear());
   // The flight software's estimates only once it has them (NaN before).
@@ -276,14 +270,14 @@ std::optional<Outcome> Recorder::on_step(int k, const VehicleTruth& truth, const
   const double fz = alt_started ? a.z_W_m : kNaN, fh = alt_started ? a.h_surface_m : kNaN;
   const Eigen::Vector3d pw = truth.X_WB.translation(), pp = X_WP.translation();
   const Eigen::Vector3d cart_v = world_.cart_qd();  // (x, y, yaw) rates
-  trace_.num(tn, 4).text(ctl::to_string(c.mode()));
+  trace_.num(tn, 4).text(st.mode);
   for (double v : {pw.x(), pw.y(), pw.z(), rpy.x(), rpy.y(), rpy.z(), truth.v_W_mps.x(), truth.v_W_mps.y(),
                    truth.v_W_mps.z(), pp.x(), pp.y(), pp.z(), rpy_of(X_WP.linear()).z(), cart_v.x(),
                    cart_v.y(), np.x(), np.y(), np.z(), nv.x(), nv.y(), nv.z(), nrpy.x(), nrpy.y(), nrpy.z(),
                    fz, fh, std::isfinite(truth.h_surface_m) ? truth.h_surface_m : -1.0,
-                   dg.platform_W_m.x(), dg.platform_W_m.y(), dg.platform_W_m.z(), dg.platform_v_W_mps.x(),
-                   dg.platform_v_W_mps.y(), dg.horizontal_error_m, (pw - pp).head<2>().norm(),
-                   dg.setpoint.p_W_m.x(), dg.setpoint.p_W_m.y(), dg.setpoint.p_W_m.z()}) {
+                   tm.platform_W_m.x(), tm.platform_W_m.y(), tm.platform_W_m.z(), tm.platform_v_W_mps.x(),
+                   tm.platform_v_W_mps.y(), tm.horizontal_error_m, (pw - pp).head<2>().norm(),
+                   tm.setpoint_W_m.x(), tm.setpoint_W_m.y(), tm.setpoint_W_m.z()}) {
     trace_.num(v, 5);
   }
   trace_.integer(last_detected_ ? 1 : 0);
@@ -292,11 +286,11 @@ std::optional<Outcome> Recorder::on_step(int k, const VehicleTruth& truth, const
   return std::nullopt;
 }
 
-void Recorder::finish(const Outcome& outcome, const flight::FlightStack& fs, Json& summary) {
+void Recorder::finish(const Outcome& outcome, const flight::FlightSoftware& fs, Json& summary) {
   if (cam_video_) cam_video_->close();
   if (chase_video_) chase_video_->close();
   trace_.commit();
-  const ctl::LandingController& c = fs.controller();
+  const flight::FlightReport c = fs.report();
   const Json& td = judge_.touchdown();
   summary["landed"] = outcome.name == "landed";
   summary["outcome"] = outcome.name;
@@ -309,34 +303,35 @@ void Recorder::finish(const Outcome& outcome, const flight::FlightStack& fs, Jso
   summary["time_to_land_s"] = judge_.t_first_contact_s() >= 0 ? judge_.t_first_contact_s() : kNaN;
   summary["touchdown"] = td;
   Json transitions = Json::array();
-  for (const auto& tr : c.transitions()) {
-    transitions.push_back({{"t_s", tr.t_s}, {"from", ctl::to_string(tr.from)}, {"to", ctl::to_string(tr.to)},
-                           {"reason", tr.reason}});
+  for (const auto& tr : c.transitions) {
+    transitions.push_back({{"t_s", tr.t_s}, {"from", tr.from}, {"to", tr.to}, {"reason", tr.reason}});
   }
+  // Who flew (the seam's info; where it came from, builtin or a plugin's file, is in
+  // flight_software.json beside it, so that one software gives one summary either way).
+  const flight::FlightSoftwareInfo who = fs.info();
+  summary["flight_software"] = {{"name", who.name}, {"version", who.version}};
   summary["mode_transitions"] = transitions;
-  summary["final_mode"] = ctl::to_string(c.mode());
+  summary["final_mode"] = c.final_mode;
   // The landing decisions (attempts, the latest decision and every event) and each loss of
   // the target with its re-acquisition (NaN written as null).
-  const ctl::LandingDecisionLog& dl = c.decision_log();
   Json events = Json::array();
-  for (const ctl::LandingEvent& e : dl.events) {
+  for (const auto& e : c.events) {
     events.push_back({{"t_s", e.t_s}, {"attempt", e.attempt}, {"what", e.what}, {"reason", e.reason}});
   }
-  summary["landing_decision"] = {{"attempts", dl.attempts}, {"decision", dl.decision}, {"reason", dl.reason},
-                                 {"t_s", dl.t_s}, {"wide_gate_m", dl.wide_gate_m}, {"events", events}};
+  summary["landing_decision"] = {{"attempts", c.attempts}, {"decision", c.decision}, {"reason", c.decision_reason},
+                                 {"t_s", c.decision_t_s}, {"wide_gate_m", c.wide_gate_m}, {"events", events}};
   Json reacq = Json::array();
-  for (const ctl::Reacquisition& r : c.reacquisitions()) {
-    reacq.push_back({{"t_last_seen_s", r.t_last_seen_s}, {"t_lost_s", r.t_lost_s},
-                     {"lost_in", ctl::to_string(r.lost_in)}, {"t_reacquired_s", r.t_reacquired_s},
-                     {"duration_s", r.duration_s()}, {"prediction_error_m", r.prediction_error_m}});
+  for (const auto& r : c.reacquisitions) {
+    reacq.push_back({{"t_last_seen_s", r.t_last_seen_s}, {"t_lost_s", r.t_lost_s}, {"lost_in", r.lost_in},
+                     {"t_reacquired_s", r.t_reacquired_s}, {"duration_s", r.t_reacquired_s - r.t_lost_s},
+                     {"prediction_error_m", r.prediction_error_m}});
   }
   summary["reacquisitions"] = reacq;
   // The platform's broadcast (sensors.platform_telemetry): messages the flight software
   // accepted, and how long its search flew to one (s).
-  summary["platform_telemetry"] = {
-      {"enabled", s_.sensors.platform_telemetry.enabled},
-      {"received", c.telemetry_received()},
-      {"search_s", static_cast<double>(c.telemetry_search_steps()) / c.params().cascade.outer_rate_hz}};
+  summary["platform_telemetry"] = {{"enabled", s_.sensors.platform_telemetry.enabled},
+                                   {"received", c.telemetry_received},
+                                   {"search_s", c.telemetry_search_s}};
   Json vision = Json::object();
   vision["frames"] = frames_;
   vision["detections"] = detections_;
@@ -352,7 +347,7 @@ void Recorder::finish(const Outcome& outcome, const flight::FlightStack& fs, Jso
   vision["not_detected_by_reason"] = reasons;
   vision["outliers_injected"] = outliers_injected_;
   summary["vision"] = vision;
-  const RejectedSamples& rej = fs.rejected();
+  const RejectedSamples& rej = c.rejected;
   summary["rejected_samples"] = {{"imu", rej.imu},
                                  {"baro", rej.baro},
                                  {"gps", rej.gps},
@@ -366,8 +361,8 @@ void Recorder::finish(const Outcome& outcome, const flight::FlightStack& fs, Jso
   alt["fused_h_surface_rmse_m"] = fused_h_err_.rmse_m();
   alt["fused_h_surface_max_m"] = fused_h_err_.max_abs_m;
   alt["by_sensor"] = alt_metrics_.json();
-  alt["height_resets"] = fs.altitude_height_resets();  // see height_reset_count
-  alt["baro_fallback_updates"] = fs.altitude_baro_fallback_updates();  // see baro_fallback_s
+  alt["height_resets"] = c.altitude_height_resets;  // see height_reset_count
+  alt["baro_fallback_updates"] = c.altitude_baro_fallback_updates;  // see baro_fallback_s
   summary["altitude_fusion"] = alt;
   if (!world_.route().empty()) {
     // Path following (seed 003, issue 14): null where there is nothing to measure.
@@ -393,9 +388,10 @@ void Recorder::finish(const Outcome& outcome, const flight::FlightStack& fs, Jso
       if (captured) after = std::isnan(after) ? x : std::max(after, x);
     }
     pf["cross_track_max_after_capture_m"] = after;
-    pf["guidance_steps"] = c.path_steps();
-    pf["target_share"] = c.path_steps() > 0 ? static_cast<double>(c.path_target_steps()) / c.path_steps() : kNaN;
-    pf["route_end_t_s"] = c.route_ended() ? c.route_end_t() : kNaN;
+    const flight::FlightStatus st = fs.status();
+    pf["guidance_steps"] = c.path_steps;
+    pf["target_share"] = c.path_steps > 0 ? static_cast<double>(c.path_target_steps) / c.path_steps : kNaN;
+    pf["route_end_t_s"] = st.route_ended ? st.route_end_t_s : kNaN;
     summary["path_following"] = pf;
   }
 }

@@ -57,6 +57,11 @@ struct Campaign {
   std::uint64_t seed{1};             ///< master seed
   double offset_limit_m{0.10};       ///< touchdown offset limit drawn in the report (m)
   double run_timeout_s{0.0};         ///< wall-clock limit of one run (s); 0: 120 s + 20 x duration
+  /// The flight plugin every run flies (absolute path; empty: each scenario's flight.plugin,
+  /// by default ours built in). The campaign key `flight_plugin:` (relative to the campaign
+  /// file) or `lander campaign run --flight-plugin LIB.so` sets it: the same campaign flown
+  /// by two flight softwares gives paired runs for `lander regress`.
+  std::string flight_plugin;
   std::vector<ScenarioEntry> scenarios;
   std::vector<Dispersion> dispersions;
 
@@ -75,6 +80,7 @@ struct PlannedRun {
   std::uint64_t seed{0};        ///< the run's scenario seed
   std::vector<std::pair<std::string, YAML::Node>> sampled;  ///< key -> value in force
   double duration_s{0.0};
+  std::string flight_plugin;    ///< Campaign::flight_plugin
 };
 
 // Samples every run and checks each one's scenario with validate(). Throws ConfigError naming

@@ -54,6 +54,10 @@ class CascadeController {
   // here the full thrust-vector form). The horizontal disturbance estimate of update_inner()
   // is fed forward: a_cmd_xy -= dist_ff_gain d_xy.
   void update_outer(double t_s, const Setpoint& sp, const NavState& nav);
+  // Instead of update_outer: the thrust vector F_W (N) and heading given directly (an
+  // attitude-and-thrust setpoint from a companion computer, flight/components.h); the inner
+  // loop flies it as it flies the outer loop's.
+  void hold_thrust(double t_s, const Eigen::Vector3d& force_W_N, double yaw_rad);
 
   // Inner loop: attitude from (F_W, yaw) -> body-rate setpoint -> rate PI -> torque
   // tau = J alpha + omega x J omega (seed 003 eq. 1) -> mixer. Returns rotor speeds.

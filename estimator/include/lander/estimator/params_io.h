@@ -117,6 +117,9 @@ class YamlReader {
   void operator()(const char* key, std::vector<double>& field, double scale = 1.0);
   void operator()(const char* key, Eigen::Vector2d& field, double scale = 1.0);
   void operator()(const char* key, Eigen::Vector3d& field, double scale = 1.0);
+  // A free-form mapping read as it is (a plugin's own configuration): must be a mapping or
+  // empty; its keys are not checked here.
+  void operator()(const char* key, YAML::Node& field);
 
   // Reads a nested params struct (a mapping) if present.
   template <class P>
@@ -184,6 +187,17 @@ class YamlWriter {
   void operator()(const char* key, const std::vector<double>& field, double scale = 1.0);
   void operator()(const char* key, const Eigen::Vector2d& field, double scale = 1.0);
   void operator()(const char* key, const Eigen::Vector3d& field, double scale = 1.0);
+  // A free-form mapping, written in block style whatever style it was read in (so that
+  // writing, reading and writing again gives the same text).
+  void operator()(const char* key, const YAML::Node& field) {
+    if (!field.IsDefined() || field.IsNull() || field.size() == 0) {
+      node_[key] = YAML::Node(YAML::NodeType::Map);
+      return;
+    }
+    YAML::Node copy = YAML::Clone(field);
+    copy.SetStyle(YAML::EmitterStyle::Block);
+    node_[key] = copy;
+  }
   template <class P>
   void nested(const char* key, P& sub) {
     YAML::Node child(YAML::NodeType::Map);

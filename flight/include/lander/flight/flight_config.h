@@ -3,7 +3,7 @@
 // points at another file (`flight.file`) or overrides keys in its `flight:` section. The
 // simulator's plant keys (vehicle mass, camera as imaged, platform height, magnetic field,
 // gravity, ...) describe the truth and never flow in here: a mismatch between the two is
-// what a software-in-the-loop run is for (DESIGN.md, "Configuration").
+// what a software-in-the-loop run is for (docs/design/architecture.md, "Configuration").
 #pragma once
 
 #include <string>
@@ -53,6 +53,17 @@ struct FlightConfig {
   CameraMount mount;               ///< calibrated camera mount X_BC
   EstimatorParams estimator;
   ctl::ControllerParams controller;  ///< holds the nominal vehicle model (controller.vehicle)
+  // Which flight software flies (flight_plugin.h): empty for ours, built in; else a plugin
+  // file (a relative path is taken from the file that names it: the scenario, or this
+  // parameter file). Not parameters of our stack: `lander flight-config --defaults` omits them.
+  std::string plugin;
+  // Or a flight software written in Python: "FILE.py:CLASS" (the Python package, python/;
+  // `lander run` hands such a run to `python3 -m lander run`). A relative FILE is taken from
+  // the file that names it.
+  std::string python;
+  // The plugin's (or the Python class's) own configuration, a free-form mapping it parses
+  // itself.
+  YAML::Node plugin_config{YAML::NodeType::Map};
 
   // Throws ConfigError naming the key. Checks that the estimator's and the vehicle model's
   // gravity agree (one belief about g).
@@ -70,6 +81,9 @@ void visit_fields(V& v, FlightConfig& p) {
   v.nested("mount", p.mount);
   v.nested("estimator", p.estimator);
   v.nested("controller", p.controller);
+  v("plugin", p.plugin);
+  v("python", p.python);
+  v("plugin_config", p.plugin_config);
 }
 
 // The default flight parameter file, models/flight.yaml.
@@ -78,5 +92,11 @@ std::string default_flight_file();
 // The flight parameter file a scenario's `flight.file` value names: empty -> models/flight.yaml;
 // a relative path is taken from the scenario file's folder. Returns an absolute path.
 std::string resolve_flight_file(const std::string& file_value, const std::string& scenario_file);
+
+// A relative flight.plugin path taken from the folder of `naming_file` (absolute result);
+// empty stays empty (ours) and an absolute path stays as it is.
+std::string resolve_plugin_path(const std::string& plugin, const std::string& naming_file);
+// The same for flight.python's "FILE.py:CLASS" (the FILE part).
+std::string resolve_python_path(const std::string& python, const std::string& naming_file);
 
 }  // namespace lander::flight

@@ -1,11 +1,14 @@
 // The flight stack: the estimator (ring detector, navigation, altitude fusion, sample screen)
 // and the landing controller, built only from the flight configuration (flight_config.h).
 // What a vehicle's flight computer runs: it takes timestamped sensor samples and camera
-// frames and gives rotor speed commands. No MuJoCo, no GL, no truth.
+// frames and gives rotor speed commands. No MuJoCo, no GL, no truth. It is our implementation
+// of the flight-software seam (flight_software.h, whose header states the call order and
+// threading); the same class flies built in or as a plugin (flight/plugin/builtin_plugin.cpp).
 //
 // Call order per delivery instant (the simulator's loop does this; a vehicle's drivers would
-// too): on_baro / on_gps / on_ultrasonic / on_vision / on_mag for everything delivered, then
-// on_imu for each IMU sample, which runs the controller's inner loop and returns its command.
+// too): on_baro / on_gps / on_ultrasonic / deliver_frame (on_vision) / on_mag for everything
+// delivered, then on_imu for each IMU sample, which runs the controller's inner loop and
+// returns its command.
 #pragma once
 
 #include <limits>
@@ -19,7 +22,9 @@
 #include "lander/estimator/path_extractor.h"
 #include "lander/estimator/sample_screen.h"
 #include "lander/estimator/vision_detector.h"
+#include "lander/flight/components.h"
 #include "lander/flight/flight_config.h"
+#include "lander/flight/flight_software.h"
 
 namespace lander::flight {
 
@@ -31,12 +36,56 @@ struct VisionResult {
   std::optional<PathObservation> path;  ///< the route's candidates, when the path stage ran
 };
 
-class FlightStack {
+class FlightStack;
+
+// One camera frame's work in our stack: the ring detector (or the user's detector given to
+// the stack) and, while the controller can use it, the path stage on the frame; the result to
+// deliver (VisionResult) once processed.
+class RingFrameJob final : public FrameJob {
+ public:
+  RingFrameJob(FlightStack& stack, const CameraFrameIn& frame, bool run_path, const Eigen::Vector2d& blur_px);
+  void process() override;
+  FrameReport report() const override { return report_; }
+  bool inject(const VisionFault& fault) override;
+  // The result as it will be delivered (after any injected fault).
+  const VisionResult& result() const { return vr_; }
+  const Eigen::Vector2d& predicted_blur_px() const { return blur_px_; }
+
+ private:
+  FlightStack& stack_;
+  CameraFrameIn frame_;
+  bool run_path_;
+  Eigen::Vector2d blur_px_;
+  VisionResult vr_;
+  FrameReport report_;
+};
+
+class FlightStack final : public FlightSoftware {
  public:
   // Loads the target geometry from config.target_path; throws ConfigError for a bad
-  // configuration or target file.
-  explicit FlightStack(const FlightConfig& config);
+  // configuration or target file. `detector`: a user's detector flown instead of ours with
+  // our navigation and controller (components.h); null for ours.
+  explicit FlightStack(const FlightConfig& config, std::unique_ptr<VisionDetector> detector = nullptr);
+  ~FlightStack() override;
 
+  // ---- the flight-software seam (flight_software.h)
+  FlightSoftwareInfo info() const override;
+  void on_baro(const BaroSample& b) override { est_.on_baro(b); }
+  void on_gps(const GpsSample& g) override { est_.on_gps(g); }
+  void on_ultrasonic(const UltrasonicSample& u) override { est_.on_ultrasonic(u); }
+  void on_mag(const MagSample& m) override { est_.on_mag(m); }
+  // The platform's broadcast position: its own GNSS fix, received over a radio link (only
+  // when the plant broadcasts one: sensors.platform_telemetry). Goes to the controller's
+  // search (LandingController::on_platform_telemetry).
+  void on_platform_telemetry(const GpsSample& g) override;
+  std::optional<RotorSpeeds> on_imu(const ImuSample& raw) override;
+  std::unique_ptr<FrameJob> begin_frame(const CameraFrameIn& frame) override;
+  void deliver_frame(std::unique_ptr<FrameJob> job) override;
+  FlightStatus status() const override;
+  FlightTelemetry telemetry() const override;
+  FlightReport report() const override;
+
+  // ---- our stack's own parts, for tests, benchmarks and the change indication
   // Vision: detects the target in one frame (BGR, as the camera delivers it, distorted; the
   // detector undistorts with the configuration's calibration). Stateful (tracking window,
   // keyframes); frames in order. Never throws for bad image content. `blur_px`: the image
@@ -59,48 +108,34 @@ class FlightStack {
   PathObservation detect_path(const cv::Mat& bgr, double t_mid_s) const;
   // The result to deliver after the processing latency.
   VisionResult vision_result(const RingDetection& det, double t_mid_s) const;
-
-  // Deliveries (after each sensor's latency). Every sample passes the sample screen first;
-  // rejected ones are counted (rejected()).
-  void on_baro(const BaroSample& b);
-  void on_gps(const GpsSample& g);
-  void on_ultrasonic(const UltrasonicSample& u);
-  void on_mag(const MagSample& m);
-  // The platform's broadcast position: its own GNSS fix, received over a radio link (only
-  // when the plant broadcasts one: sensors.platform_telemetry). Goes to the controller's
-  // search (LandingController::on_platform_telemetry).
-  void on_platform_telemetry(const GpsSample& g);
+  // A vision result reaching the filters and the controller (deliver_frame's work; the
+  // change indication delivers recorded ones).
   void on_vision(const VisionResult& vr);
   // Navigation and altitude prediction, then the controller's inner loop. Returns the rotor
   // command, or nothing while the navigation has no valid state yet (or the sample was
   // rejected with nothing good to hold).
-  std::optional<ctl::RotorCommand> on_imu(const ImuSample& raw);
+  std::optional<ctl::RotorCommand> step_imu(const ImuSample& raw);
 
-  // State for the recorder (no truth in here).
-  bool altitude_started() const { return fusion_started_; }  ///< fusion has an estimate
-  AltitudeEstimate altitude() const { return fusion_.estimate(); }
-  long altitude_height_resets() const { return fusion_.height_resets(); }  ///< height_reset_count
-  long altitude_baro_fallback_updates() const { return fusion_.baro_fallback_updates(); }  ///< baro_fallback_s
+  // State for the recorder and tests (no truth in here).
+  bool altitude_started() const { return est_.altitude_started(); }  ///< fusion has an estimate
+  AltitudeEstimate altitude() const { return est_.altitude(); }
   // The navigation state the controller flies on: the navigation filter's, with the
   // altitude fusion's height and climb rate once it has an estimate
   // (navigation.height_from_altitude_fusion).
-  NavState nav_state() const;
+  NavState nav_state() const { return est_.nav_state(); }
   const ctl::LandingController& controller() const { return controller_; }
-  const RejectedSamples& rejected() const { return screen_.rejected(); }
+  const RejectedSamples& rejected() const { return est_.rejected(); }
   const FlightConfig& config() const { return config_; }
   const CameraMount& mount() const { return config_.mount; }
 
  private:
+  friend class RingFrameJob;
   FlightConfig config_;
   RingTargetDetector detector_;
+  std::unique_ptr<VisionDetector> user_detector_;  // flown instead of detector_ when set
   PathExtractor path_extractor_;
-  Navigation nav_;
-  AltitudeFusion fusion_;
-  SampleScreen screen_;
+  StateEstimator est_;
   ctl::LandingController controller_;
-  // The vehicle starts in the air: the filter starts from the first barometer reading, with
-  // the split between height and barometer bias left to GPS and vision.
-  bool fusion_started_{false};
 };
 
 }  // namespace lander::flight

@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "lander/flight/flight_software.h"
 #include "lander/sim/render/renderer.h"
 #include "lander/sim/run.h"
 #include "lander/sim/scenario.h"
@@ -42,10 +43,13 @@ inline double camera_exposure_end(const CameraParams& p, double t_start_s) {
 // `flight:` section only) and the recorder on one fixed-step scheduler. run() fills `summary`
 // (landed, outcome, touchdown figures, transitions, vision counts, altitude-fusion errors) and
 // writes trace.csv and the videos into o.out_dir. `renderer` may be null only when
-// o.replay_vision is set and o.video is not. One run per object.
+// o.replay_vision is set and o.video is not. `flight` is the run's flight software
+// (make_flight_software, loop/flight_factory.h), reached through the seam only. One run per
+// object.
 class ClosedLoop {
  public:
-  ClosedLoop(const Scenario& s, const RunOptions& o, World& world, Renderer* renderer);
+  ClosedLoop(const Scenario& s, const RunOptions& o, World& world, Renderer* renderer,
+             std::unique_ptr<flight::FlightSoftware> flight);
   ~ClosedLoop();
   ClosedLoop(const ClosedLoop&) = delete;
   ClosedLoop& operator=(const ClosedLoop&) = delete;

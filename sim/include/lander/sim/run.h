@@ -4,14 +4,31 @@
 // camera.mp4 and chase.mp4.
 #pragma once
 
+#include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "lander/flight/flight_software.h"
 #include "lander/sim/scenario.h"
 
 namespace lander::sim {
+
+class World;
+struct CameraFrame;
+struct VehicleTruth;
+
+// What a stepping caller sees after each physics step of a closed loop (the Python package's
+// lander.Sim): the time, the world and the vehicle's truth, and the camera frame whose
+// exposure ended in this step (null if none). Valid during the call only.
+struct StepView {
+  double t_s{0.0};
+  const World* world{nullptr};
+  const VehicleTruth* truth{nullptr};
+  const CameraFrame* frame{nullptr};
+};
 
 // summary.json "outcome": landed | timeout | touched_ground | tipped_over (the vehicle fell
 // over on the ground or platform) | diverged (NaN or runaway physics state, or a MuJoCo
@@ -40,6 +57,12 @@ struct RunOptions {
   // (frame, t, height, detected, status, tracking ROI used, code searched, ring detector wall
   // and CPU ms, path stage ms), for `lander bench loop --frames-csv`.
   std::string vision_profile_csv;
+  // The flight software to fly instead of the scenario's (make_flight_software): the Python
+  // package's flight softwares written in Python. Called once, before any output is written.
+  std::function<std::unique_ptr<flight::FlightSoftware>(const Scenario&)> flight_factory;
+  // Called on the loop's thread after every physics step of a closed loop (never changes the
+  // run: it may only look, or wait). An exception from it ends the run as an error.
+  std::function<void(const StepView&)> step_observer;
 };
 
 // The values of RunOptions::vision_schedule.

@@ -258,6 +258,9 @@ struct Scenario {
   // the flight parameter file named by flight.file, default models/flight.yaml, for the flight
   // software). Throws ConfigError with file:line and key.
   static Scenario load(const std::string& path);
+  // The same from a YAML tree already in memory (the Python package's dict scenarios);
+  // `path` names it in messages, and relative paths in it are taken from its folder.
+  static Scenario load_node(const YAML::Node& root, const std::string& path);
   // The defaults with models/vehicle.yaml and models/flight.yaml applied: what a scenario
   // file starts from.
   static Scenario defaults();

@@ -1,8 +1,9 @@
 // The recorder: everything a run leaves behind, judged against the truth the simulator
 // keeps. trace.csv (truth beside the flight software's estimates), per-sensor and fused height
 // errors, vision counts, the landing judgement (contact, touchdown figures, outcome), the
-// videos and summary.json. It reads the flight stack's state only through its public
-// accessors and counts an estimate only once the flight software has one.
+// videos and summary.json. It reads the flight software's state only through the seam's
+// status, telemetry and report (flight_software.h) and counts an estimate only once the
+// flight software has one.
 #pragma once
 
 #include <map>
@@ -12,7 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "lander/flight/flight_stack.h"
+#include "lander/flight/flight_software.h"
 #include "lander/sim/recorder/altitude_metrics.h"
 #include "lander/sim/sensors/camera.h"
 #include "lander/sim/util/output_files.h"
@@ -41,7 +42,8 @@ class LandingJudge {
   // After each physics step (time tn): records the first contact's touchdown figures and
   // returns the outcome once the run is decided (landed: resting on the platform, motors cut,
   // upright, for 1 s; tipped over; on the ground).
-  std::optional<Outcome> update(double tn, const VehicleTruth& truth, const ctl::LandingController& c);
+  std::optional<Outcome> update(double tn, const VehicleTruth& truth, const flight::FlightStatus& st,
+                                const flight::FlightSoftware& fs);
   const nlohmann::ordered_json& touchdown() const { return touchdown_; }
   double t_first_contact_s() const { return t_first_contact_; }  ///< < 0 before contact
 
@@ -69,28 +71,26 @@ class Recorder {
     AltitudeEstimate altitude;
     cv::Mat chase;                                    ///< chase-view frame (video only)
   };
-  FrameCapture capture_frame(const CameraFrame& frame, const flight::FlightStack& fs);
-  // A finished camera frame with its capture, the flight software's detection and the result
-  // it will deliver (before any corruption hook): vision counts, the vision height error,
-  // video frames.
-  void on_frame(const CameraFrame& frame, const FrameCapture& cap, const RingDetection& det,
-                const flight::VisionResult& vr);
+  FrameCapture capture_frame(const CameraFrame& frame, const flight::FlightSoftware& fs);
+  // A finished camera frame with its capture and what the flight software's processing found
+  // (before the NaN-pose fault hook): vision counts, the vision height error, video frames.
+  void on_frame(const CameraFrame& frame, const FrameCapture& cap, const flight::FrameReport& rep);
   // A vision result reaching the flight software: the trace's `detected` column follows what
   // the flight software has been told.
-  void on_vision_delivered(const flight::VisionResult& vr) { last_detected_ = vr.obs.detected; }
+  void on_vision_delivered(bool detected) { last_detected_ = detected; }
   // The samples taken at truth.t_s, as the sensors measured them: per-sensor height errors.
   void on_samples(const SensorSuite::Sampled& smp, const VehicleTruth& truth);
   // After the step k (time truth.t_s) and the flight software's updates: fused-height errors,
   // the landing judgement, a trace row when due. Returns the outcome when the run ends here
   // (no trace row then).
-  std::optional<Outcome> on_step(int k, const VehicleTruth& truth, const flight::FlightStack& fs,
+  std::optional<Outcome> on_step(int k, const VehicleTruth& truth, const flight::FlightSoftware& fs,
                                  const RotorArray& rotor_speeds_radps);
   void count_outlier_injected() { ++outliers_injected_; }
   int outliers_injected() const { return outliers_injected_; }
 
   // Closes the trace and videos and fills summary.json's landing, vision, sample and altitude
   // sections.
-  void finish(const Outcome& outcome, const flight::FlightStack& fs, nlohmann::ordered_json& summary);
+  void finish(const Outcome& outcome, const flight::FlightSoftware& fs, nlohmann::ordered_json& summary);
 
  private:
   const Scenario& s_;

@@ -31,6 +31,7 @@
 #include <optional>
 #include <string>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -45,12 +46,12 @@ namespace lander::sim {
 template <class Sample>
 class DelayQueue {
  public:
-  void push(const Sample& s, double deliver_at_s) { q_.push_back({deliver_at_s, s}); }
+  void push(Sample s, double deliver_at_s) { q_.emplace_back(deliver_at_s, std::move(s)); }
   // Removes and returns (in order) every sample whose delivery time is <= t_s.
   std::vector<Sample> pop_ready(double t_s) {
     std::vector<Sample> out;
     while (!q_.empty() && q_.front().first <= t_s + 1e-12) {
-      out.push_back(q_.front().second);
+      out.push_back(std::move(q_.front().second));
       q_.pop_front();
     }
     return out;
