@@ -12,7 +12,7 @@ export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
 if [ ! -f build-san/CMakeCache.txt ]; then
   CC=clang CXX=clang++ cmake -S . -B build-san -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -DNDEBUG" -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O2 -DNDEBUG" \
-    -DLANDER_FUZZ=ON > build-san.log 2>&1 || { cat build-san.log; exit 1; }
+    -DLANDER_FUZZ=ON -DLANDER_PYTHON=OFF > build-san.log 2>&1 || { cat build-san.log; exit 1; }
 fi
 cmake --build build-san -j"$(nproc)" --target fuzz_scenario fuzz_target_camera fuzz_detector \
   >> build-san.log 2>&1 || { tail -50 build-san.log; exit 1; }

@@ -30,7 +30,7 @@ ubsan_exclude=""
 if [[ "$mode" == ci ]]; then ubsan_exclude="null,object-size,alignment,vptr,pointer-overflow"; fi
 CC=clang CXX=clang++ cmake -S . -B build-san -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -DNDEBUG" -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O2 -DNDEBUG" \
-  -DLANDER_FUZZ=ON -DLANDER_UBSAN_EXCLUDE="$ubsan_exclude" > build-san.log 2>&1 \
+  -DLANDER_FUZZ=ON -DLANDER_PYTHON=OFF -DLANDER_UBSAN_EXCLUDE="$ubsan_exclude" > build-san.log 2>&1 \
   || { cat build-san.log; exit 1; }
 if [[ "$mode" == ci ]]; then
   t0=$SECONDS
