@@ -49,26 +49,29 @@ BinaryRun lander(std::vector<std::string> args, const std::string& io_dir) {
 
 // A scenario of the source tree with its duration cut to `duration_s` (byte identity needs no
 // landing; the frames, detections, faults and blur of those seconds are what crosses the seam).
-std::string shortened(const std::string& dir, const std::string& scenario, double duration_s) {
+std::string shortened(const std::string& dir, const std::string& scenario, double duration_s,
+                      const std::string& extra_yaml = "") {
   const std::string text = slurp(std::string(LANDER_SOURCE_DIR) + "/scenarios/" + scenario);
   EXPECT_FALSE(text.empty()) << scenario;
   const std::regex dur("(^|\n)duration_s: *[0-9.]+");
   EXPECT_TRUE(std::regex_search(text, dur)) << scenario << " has no duration_s line";
   const std::string out = dir + "/" + scenario;
-  std::ofstream(out) << std::regex_replace(text, dur, "$1duration_s: " + std::to_string(duration_s));
+  std::ofstream(out) << std::regex_replace(text, dur, "$1duration_s: " + std::to_string(duration_s)) << "\n"
+                      << extra_yaml;
   return out;
 }
 
-void expect_identical_outputs(const std::string& scenario, double duration_s) {
+// Returns the plugin run's summary.json.
+json expect_identical_outputs(const std::string& scenario, double duration_s, const std::string& extra_yaml = "") {
   const std::string dir = temp_dir("plugin_identity");
-  const std::string s = shortened(dir, scenario, duration_s);
+  const std::string s = shortened(dir, scenario, duration_s, extra_yaml);
   const BinaryRun a = lander({"run", s, "--out", dir + "/builtin", "--quiet"}, dir);
   const BinaryRun b =
       lander({"run", s, "--out", dir + "/plugin", "--quiet", "--flight-plugin", PLUGIN_lander_flight_plugin}, dir);
-  ASSERT_EQ(a.code, b.code) << a.err << b.err;
+  EXPECT_EQ(a.code, b.code) << a.err << b.err;
   for (const char* f : {"summary.json", "trace.csv"}) {
     const std::string x = slurp(dir + "/builtin/" + f), y = slurp(dir + "/plugin/" + f);
-    ASSERT_FALSE(x.empty()) << scenario << ": no " << f << "\n" << a.err;
+    EXPECT_FALSE(x.empty()) << scenario << ": no " << f << "\n" << a.err;
     EXPECT_TRUE(x == y) << scenario << ": " << f << " differs between the built-in run and the plugin's";
   }
   // The same configuration flew, but for the key that chose the software.
@@ -86,6 +89,7 @@ void expect_identical_outputs(const std::string& scenario, double duration_s) {
   EXPECT_EQ(lander::test::string_at(sum.at("flight_software"), "name"), "lander");
   // Something crossed the seam: frames were detected.
   EXPECT_GT(lander::test::number_at(sum.at("vision"), "detections"), 0) << scenario;
+  return sum;
 }
 
 TEST(FlightPlugin, OurStackAsAPluginGivesTheBuiltInFilesByteForByte) {
@@ -93,8 +97,18 @@ TEST(FlightPlugin, OurStackAsAPluginGivesTheBuiltInFilesByteForByte) {
 }
 
 TEST(FlightPlugin, OurStackAsAPluginIsIdenticalWithFaults) {
-  // gps_degraded: correlated GPS error, glitches and drop-outs through the sample screen.
-  expect_identical_outputs("gps_degraded.yaml", 15.0);
+  // gps_degraded (correlated GPS error, glitches, drop-outs) with the fault hooks on the
+  // wire (NaN IMU, absurd GPS) and on the vision results through FrameJob::inject (pushed
+  // poses, NaN poses), all while the target is tracked.
+  const json sum = expect_identical_outputs("gps_degraded.yaml", 15.0,
+                           "faults: {vision_outlier_t_s: 6.0, vision_outlier_frames: 4, vision_outlier_m: 0.8,\n"
+                           "  nan_vision_t_s: 9.0, nan_vision_duration_s: 0.3, nan_imu_t_s: 7.0,\n"
+                           "  nan_imu_duration_s: 0.05, absurd_gps_t_s: 11.0, absurd_gps_duration_s: 0.5}\n");
+  // The faults reached the flight software: the outliers were injected, the samples screened.
+  EXPECT_EQ(lander::test::number_at(sum.at("vision"), "outliers_injected"), 4);
+  EXPECT_GT(lander::test::number_at(sum.at("rejected_samples"), "imu"), 0);
+  EXPECT_GT(lander::test::number_at(sum.at("rejected_samples"), "gps"), 0);
+  EXPECT_GT(lander::test::number_at(sum.at("rejected_samples"), "vision"), 0);
 }
 
 TEST(FlightPlugin, OurStackAsAPluginIsIdenticalWithMotionBlur) {
