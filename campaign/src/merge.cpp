@@ -231,7 +231,10 @@ std::string shell_quote(const std::string& s) {
   return q + "'";
 }
 
-MergeResult merge_campaign(const std::string& dir, const MergeOptions& o) {
+namespace {
+
+// DIR/plan.json, checked: a mapping with a list of runs.
+json read_plan(const std::string& dir) {
   const std::string plan_path = dir + "/plan.json";
   if (!fs::exists(plan_path)) {
     throw ConfigError(plan_path + ": not found; is " + dir + " a campaign directory (lander campaign run ... --out DIR)?");
@@ -245,9 +248,14 @@ MergeResult merge_campaign(const std::string& dir, const MergeOptions& o) {
   if (!plan.is_object() || !plan.contains("runs") || !plan["runs"].is_array()) {
     throw ConfigError(plan_path + ": no 'runs' list");
   }
-  MergeResult res;
+  return plan;
+}
+
+// Every planned run with a run.json, in plan order (the others listed in res.missing);
+// `scenario_order` gets the scenario ids in their first appearance's order.
+std::vector<Row> read_rows(const std::string& dir, const json& plan, MergeResult& res,
+                           std::vector<std::string>& scenario_order) {
   std::vector<Row> rows;
-  std::vector<std::string> scenario_order;
   for (const json& p : plan["runs"]) {
     const std::string id = p.at("id").get<std::string>();
     const std::string scen = p.at("scenario").get<std::string>();
@@ -312,10 +320,12 @@ MergeResult merge_campaign(const std::string& dir, const MergeOptions& o) {
     rows.push_back(r);
   }
   res.complete = static_cast<int>(rows.size());
+  return rows;
+}
 
+// campaign.csv: one row a run, the sampled inputs `cols` after the outcome.
+void write_campaign_csv(const std::string& dir, const std::vector<std::string>& cols, const std::vector<Row>& rows) {
   // campaign.csv (the project's one CSV writer; numbers in their shortest exact form)
-  const json keys = plan.value("dispersion_keys", json::array());
-  const std::vector<std::string> cols = input_columns(keys, rows);
   std::vector<std::string> header = {"id", "scenario", "seed", "outcome", "landed", "touchdown_offset_m"};
   header.insert(header.end(), cols.begin(), cols.end());
   for (const char* c : {"touchdown_x_P_m", "touchdown_y_P_m", "touchdown_rel_speed_mps", "touchdown_tilt_deg",
@@ -344,7 +354,12 @@ MergeResult merge_campaign(const std::string& dir, const MergeOptions& o) {
   }
   csv.commit();
 
-  // campaign.json
+}
+
+// campaign.json's header, the flight softwares that flew and the statistics overall and per
+// scenario.
+json campaign_json(const json& plan, const MergeResult& res, const json& keys, const std::vector<Row>& rows,
+                   const std::vector<std::string>& scenario_order) {
   json j;
   j["schema_version"] = 1;
   j["name"] = plan.value("name", "campaign");
@@ -375,8 +390,14 @@ MergeResult merge_campaign(const std::string& dir, const MergeOptions& o) {
     per[s] = group_stats(g);
   }
   j["scenarios"] = per;
-  // Worst first: simulator failures, runs that did not land, then the largest offsets.
-  std::vector<const Row*> order = all;
+  return j;
+}
+
+// The ten worst runs (simulator failures, runs that did not land, then the largest offsets),
+// each with the command that reruns it with videos.
+json worst_runs(const std::vector<Row>& rows, const std::string& dir, const MergeOptions& o) {
+  std::vector<const Row*> order;
+  for (const Row& r : rows) order.push_back(&r);
   auto badness = [](const Row* r) { return r->status != "ok" ? 2 : (!r->landed ? 1 : 0); };
   std::stable_sort(order.begin(), order.end(), [&](const Row* a, const Row* b) {
     if (badness(a) != badness(b)) return badness(a) > badness(b);
@@ -401,24 +422,40 @@ MergeResult merge_campaign(const std::string& dir, const MergeOptions& o) {
                  shell_quote(abs_dir + "/rerun/" + r->id) + " --video";
     worst.push_back(w);
   }
-  j["worst_runs"] = worst;
+  return worst;
+}
+
+// report.html through tools/campaign_report.py.
+void write_report_html(const std::string& dir, MergeResult& res) {
+  const std::string script = std::string(LANDER_TOOLS_DIR) + "/campaign_report.py";
+  try {
+    sim::SpawnOptions so;
+    so.stdout_to_null = true;
+    sim::ChildProcess p = sim::ChildProcess::spawn({"python3", script, dir}, so);
+    const sim::ExitStatus st = p.wait();
+    res.html_written = st.ok();
+    if (!st.ok()) res.html_error = script + " failed (" + st.describe() + ")";
+  } catch (const std::exception& e) {
+    res.html_error = e.what();
+  }
+}
+
+}  // namespace
+
+MergeResult merge_campaign(const std::string& dir, const MergeOptions& o) {
+  const json plan = read_plan(dir);
+  MergeResult res;
+  std::vector<std::string> scenario_order;
+  const std::vector<Row> rows = read_rows(dir, plan, res, scenario_order);
+  const json keys = plan.value("dispersion_keys", json::array());
+  const std::vector<std::string> cols = input_columns(keys, rows);
+  write_campaign_csv(dir, cols, rows);
+  json j = campaign_json(plan, res, keys, rows, scenario_order);
+  j["worst_runs"] = worst_runs(rows, dir, o);
   j["sensitivity"] = sensitivity(cols, rows);
   res.campaign = j;
   sim::write_json_file(dir + "/campaign.json", j);
-
-  if (o.html) {
-    const std::string script = std::string(LANDER_TOOLS_DIR) + "/campaign_report.py";
-    try {
-      sim::SpawnOptions so;
-      so.stdout_to_null = true;
-      sim::ChildProcess p = sim::ChildProcess::spawn({"python3", script, dir}, so);
-      const sim::ExitStatus st = p.wait();
-      res.html_written = st.ok();
-      if (!st.ok()) res.html_error = script + " failed (" + st.describe() + ")";
-    } catch (const std::exception& e) {
-      res.html_error = e.what();
-    }
-  }
+  if (o.html) write_report_html(dir, res);
   return res;
 }
 
