@@ -378,6 +378,7 @@ YAML::Node resolved_defaults() {
 Campaign Campaign::load(const std::string& path) {
   const YAML::Node root = load_yaml_file(path);
   if (!root.IsMap()) fail(yaml_where(root, path), "a campaign file is a mapping (name, seed, scenarios, dispersions)");
+  check_unique_keys(root, path);  // a repeated key (seed: twice) would be silently ignored
   check_keys(root, path,
              {"name", "description", "seed", "offset_limit_m", "run_timeout_s", "flight_plugin", "scenarios", "dispersions"},
              "");

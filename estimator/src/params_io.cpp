@@ -76,6 +76,27 @@ YamlReader::YamlReader(const YAML::Node& node, std::string file, std::string pre
   }
 }
 
+void check_unique_keys(const YAML::Node& node, const std::string& file, const std::string& prefix) {
+  if (node.IsSequence()) {
+    for (std::size_t i = 0; i < node.size(); ++i) {
+      check_unique_keys(node[i], file, prefix + "[" + std::to_string(i) + "]");
+    }
+    return;
+  }
+  if (!node.IsMap()) return;
+  std::map<std::string, int> first_line;
+  for (auto it = node.begin(); it != node.end(); ++it) {
+    const std::string k = it->first.IsScalar() ? it->first.Scalar() : YAML::Dump(it->first);
+    const std::string path = prefix.empty() ? k : prefix + "." + k;
+    const auto [prev, inserted] = first_line.emplace(k, it->first.Mark().line + 1);
+    if (!inserted) {
+      throw ConfigError(yaml_where(it->first, file) + ": duplicate key '" + path + "' (first at line " +
+                        std::to_string(prev->second) + ")");
+    }
+    check_unique_keys(it->second, file, path);
+  }
+}
+
 void YamlReader::record(const std::string& path, const YAML::Node& at) {
   if (lines_ && at.Mark().line >= 0) (*lines_)[path] = at.Mark().line + 1;
 }

@@ -206,6 +206,11 @@ TEST(CampaignFile, BadEntriesAndTopLevelKeys) {
       {"seed: 1\nscenarios: [{file: tiny.yaml, runs: 1}, {file: tiny.yaml, runs: 1}]\n", "used twice"},
       {"seed: 1\nscenarios: [{file: tiny.yaml, runs: 1, id: \"a/b\"}]\n", "must be 1-64 letters"},
       {"seed: -3\nscenarios: [{file: tiny.yaml, runs: 1}]\n", "seed: expected a non-negative integer"},
+      // A repeated key, which yaml-cpp would let pass with the first value: refused with both lines.
+      {"seed: 1\nscenarios: [{file: tiny.yaml, runs: 1}]\nseed: 2\n", ":3: duplicate key 'seed' (first at line 1)"},
+      {"seed: 1\nscenarios: [{file: tiny.yaml, runs: 1, runs: 2}]\n", "duplicate key 'scenarios[0].runs'"},
+      {"seed: 1\nscenarios: [{file: tiny.yaml, runs: 1}]\ndispersions:\n  cart.speed_mps: {uniform: [0, 1]}\n"
+       "  cart.speed_mps: {uniform: [1, 2]}\n", ":5: duplicate key 'dispersions.cart.speed_mps' (first at line 4)"},
   };
   for (const auto& [text, expect] : cases) {
     const std::string f = write_campaign("bad2.yaml", text);

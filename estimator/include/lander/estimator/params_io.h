@@ -227,6 +227,12 @@ class YamlWriter {
 // than one document.
 YAML::Node load_yaml_file(const std::string& path);
 
+// Throws ConfigError "file:line: duplicate key 'a.b' (first at line N)" for the first key
+// that a mapping anywhere in `node` repeats (yaml-cpp keeps both entries, and a lookup finds
+// only the first: the second would be silently ignored). For files read without a
+// YamlReader (campaign files); `prefix` is the dotted path of `node`.
+void check_unique_keys(const YAML::Node& node, const std::string& file, const std::string& prefix = "");
+
 // The directory of the default configuration files (flight.yaml, world.xml, target.yaml,
 // vehicle.yaml, ...): the environment variable LANDER_MODELS_DIR if set (a binary copied or
 // installed away from its source tree, or an older binary run against its own models), else
