@@ -14,11 +14,6 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-const FlightConfig& validated(const FlightConfig& c) {
-  c.validate();
-  return c;
-}
-
 // One frame through the stack's detector (on whichever thread runs process).
 class CompanionFrameJob final : public FrameJob {
  public:
@@ -30,14 +25,9 @@ class CompanionFrameJob final : public FrameJob {
   }
   FrameReport report() const override { return d_.report; }
   bool inject(const VisionFault& f) override {
-    if (f.kind == VisionFault::Kind::kOffsetAlongAxis) {
-      d_.obs.X_CP.translation().z() += f.offset_m;
-      if (d_.report.detected) d_.report.vision_height_m = height_above_target_m(d_.obs.X_CP, X_BC_);
-    } else {
-      d_.obs.detected = true;
-      d_.obs.keyframe = true;
-      d_.obs.X_CP.translation().setConstant(kNaN);
-      d_.obs.cov.setConstant(kNaN);
+    apply_vision_fault(d_.obs, f);
+    if (f.kind == VisionFault::Kind::kOffsetAlongAxis && d_.report.detected) {
+      d_.report.vision_height_m = height_above_target_m(d_.obs.X_CP, X_BC_);
     }
     return true;
   }

@@ -1,7 +1,6 @@
 #include "lander/flight/flight_stack.h"
 
 #include <cmath>
-#include <limits>
 #include <utility>
 
 #include "internal.h"
@@ -20,11 +19,6 @@ constexpr double kMinBlurDepthM = 0.2;
 // A platform fix older than this no longer gives the depth and the platform's velocity (the
 // tracker's relative vector is extrapolated from it); a second is ~30 frames.
 constexpr double kFreshFixS = 1.0;
-
-const FlightConfig& validated(const FlightConfig& c) {
-  c.validate();
-  return c;
-}
 
 static_assert(kRotorCount == ctl::kNumRotors, "the seam's rotor count is the mixer's");
 
@@ -63,22 +57,12 @@ void RingFrameJob::process() {
 }
 
 bool RingFrameJob::inject(const VisionFault& fault) {
-  PlatformObservation& obs = vr_.obs;
-  if (fault.kind == VisionFault::Kind::kOffsetAlongAxis) {
-    // The pose pushed along the optical axis, as if the detector had measured it there.
-    obs.X_CP.translation().z() += fault.offset_m;
-    const double h = height_above_target_m(obs.X_CP, stack_.mount().X_BC());
-    if (obs.detected && obs.keyframe) vr_.h_plane_m = h;
-    if (report_.detected) report_.vision_height_m = h;
-  } else {
-    // A "detection" with a NaN pose on its way to the filters (the report keeps the detector's).
-    constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-    obs.detected = true;
-    obs.keyframe = true;
-    obs.X_CP.translation().setConstant(kNaN);
-    obs.cov.setConstant(kNaN);
-    vr_.h_plane_m = height_above_target_m(obs.X_CP, stack_.mount().X_BC());
-  }
+  // A pushed pose moves the recorder's vision height too; a NaN pose goes only to the
+  // filters (the report keeps the detector's).
+  apply_vision_fault(vr_.obs, fault);
+  const double h = height_above_target_m(vr_.obs.X_CP, stack_.mount().X_BC());
+  if (vr_.obs.detected && vr_.obs.keyframe) vr_.h_plane_m = h;
+  if (fault.kind == VisionFault::Kind::kOffsetAlongAxis && report_.detected) report_.vision_height_m = h;
   return true;
 }
 

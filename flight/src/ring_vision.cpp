@@ -1,6 +1,7 @@
 // Our ring and code-map detector behind the detector seam (components.h), and the report of
 // one detection that both stacks give the recorder.
 #include <ctime>
+#include <limits>
 #include <utility>
 
 #include <fmt/format.h>
@@ -50,6 +51,23 @@ FrameReport detection_report(const RingDetection& det, const Eigen::Isometry3d& 
   return r;
 }
 
+void apply_vision_fault(PlatformObservation& obs, const VisionFault& fault) {
+  if (fault.kind == VisionFault::Kind::kOffsetAlongAxis) {
+    obs.X_CP.translation().z() += fault.offset_m;
+    return;
+  }
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  obs.detected = true;
+  obs.keyframe = true;
+  obs.X_CP.translation().setConstant(kNaN);
+  obs.cov.setConstant(kNaN);
+}
+
+const FlightConfig& validated(const FlightConfig& c) {
+  c.validate();
+  return c;
+}
+
 namespace {
 
 class RingVisionDetector final : public VisionDetector {
@@ -76,8 +94,7 @@ class RingVisionDetector final : public VisionDetector {
 }  // namespace
 
 std::unique_ptr<VisionDetector> make_ring_detector(const FlightConfig& config) {
-  config.validate();
-  return std::make_unique<RingVisionDetector>(config);
+  return std::make_unique<RingVisionDetector>(validated(config));
 }
 
 }  // namespace lander::flight

@@ -46,13 +46,7 @@ inline void corrupt_sample(GpsSample& s) {
 }
 inline void corrupt_sample(UltrasonicSample& s) { s.range_m = kFaultNaN; }
 inline void corrupt_sample(MagSample& s) { s.field_B_uT.setConstant(kFaultNaN); }
-// A vision result that claims a keyframe detection with a NaN pose and covariance.
-inline void corrupt_observation(PlatformObservation& obs) {
-  obs.detected = true;
-  obs.keyframe = true;
-  obs.X_CP.translation().setConstant(kFaultNaN);
-  obs.cov.setConstant(kFaultNaN);
-}
+// (The vision faults act through the flight software's frame jobs: FrameJob::inject.)
 
 // MuJoCo's warnings of a diverging simulation (mj_checkPos / Vel / Acc in mj_step: "Nan, Inf
 // or huge value in QACC at DOF 3. The simulation is unstable.").
