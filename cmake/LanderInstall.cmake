@@ -3,11 +3,11 @@
 #   target_link_libraries(my_plugin PRIVATE lander::flight)   # seam, estimator, controller
 #   lander_add_flight_plugin(my_plugin SOURCES ... LIBS lander::flight)
 include(CMakePackageConfigHelpers)
-foreach(lib estimator controller flight flags)
+foreach(lib core estimator controller flight flags)
   set_target_properties(lander_${lib} PROPERTIES EXPORT_NAME ${lib})  # lander::flight, ...
 endforeach()
-install(DIRECTORY estimator/include/ controller/include/ flight/include/ DESTINATION include)
-install(TARGETS lander_estimator lander_controller lander_flight lander_flags EXPORT landerTargets
+install(DIRECTORY core/include/ estimator/include/ controller/include/ flight/include/ DESTINATION include)
+install(TARGETS lander_core lander_estimator lander_controller lander_flight lander_flags EXPORT landerTargets
         ARCHIVE DESTINATION lib INCLUDES DESTINATION include)
 install(EXPORT landerTargets NAMESPACE lander:: DESTINATION lib/cmake/lander)
 configure_package_config_file(cmake/landerConfig.cmake.in "${CMAKE_CURRENT_BINARY_DIR}/landerConfig.cmake"

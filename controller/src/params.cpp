@@ -89,111 +89,165 @@ double LandingParams::wide_gate_m() const {
   return std::min(wide_gate_on_top_m(), cut_vision_radius_m);
 }
 
-void LandingParams::validate() const {
-  require(observe_frames >= 1, "observe_frames", "must be >= 1");
-  require(approach_entry_max_error_m >= 0, "approach_entry_max_error_m", "must be >= 0 (0: off)");
-  require(approach_entry_wait_s >= 0, "approach_entry_wait_s", "must be >= 0");
-  require(approach_epsilon_m > 0, "approach_epsilon_m", "must be > 0");
-  require(approach_speed_mps > 0, "approach_speed_mps", "must be > 0");
-  require(approach_min_duration_s > 0, "approach_min_duration_s", "must be > 0");
-  require(approach_max_duration_s >= approach_min_duration_s, "approach_max_duration_s",
+namespace {
+
+// LandingParams: the observe and approach phases.
+void validate_approach(const LandingParams& L) {
+  require(L.observe_frames >= 1, "observe_frames", "must be >= 1");
+  require(L.approach_entry_max_error_m >= 0, "approach_entry_max_error_m", "must be >= 0 (0: off)");
+  require(L.approach_entry_wait_s >= 0, "approach_entry_wait_s", "must be >= 0");
+  require(L.approach_epsilon_m > 0, "approach_epsilon_m", "must be > 0");
+  require(L.approach_speed_mps > 0, "approach_speed_mps", "must be > 0");
+  require(L.approach_min_duration_s > 0, "approach_min_duration_s", "must be > 0");
+  require(L.approach_max_duration_s >= L.approach_min_duration_s, "approach_max_duration_s",
           "must be >= approach_min_duration_s");
-  require(approach_switch_error_m > 0, "approach_switch_error_m", "must be > 0");
-  require(approach_settle_timeout_s >= 0, "approach_settle_timeout_s", "must be >= 0");
-  require(descent_rate_mps > 0, "descent_rate_mps", "must be > 0");
-  require(descent_rate_near_mps > 0 && descent_rate_near_mps <= descent_rate_mps,
+  require(L.approach_switch_error_m > 0, "approach_switch_error_m", "must be > 0");
+  require(L.approach_settle_timeout_s >= 0, "approach_settle_timeout_s", "must be >= 0");
+}
+
+// LandingParams: the recovery descent and its visual servo.
+void validate_descent(const LandingParams& L) {
+  require(L.descent_rate_mps > 0, "descent_rate_mps", "must be > 0");
+  require(L.descent_rate_near_mps > 0 && L.descent_rate_near_mps <= L.descent_rate_mps,
           "descent_rate_near_mps", "must be in (0, descent_rate_mps]");
-  require(descent_rate_final_mps > 0 && descent_rate_final_mps <= descent_rate_near_mps,
+  require(L.descent_rate_final_mps > 0 && L.descent_rate_final_mps <= L.descent_rate_near_mps,
           "descent_rate_final_mps", "must be in (0, descent_rate_near_mps]");
-  require(near_height_m > 0, "near_height_m", "must be > 0");
-  require(descent_gate_m > 0, "descent_gate_m", "must be > 0");
-  require(descent_gate_near_m > 0, "descent_gate_near_m", "must be > 0");
-  require(final_hover_gap_m >= -kMaxFinalHoverGapBelow_m && final_hover_gap_m < cut_height_m,
+  require(L.near_height_m > 0, "near_height_m", "must be > 0");
+  require(L.descent_gate_m > 0, "descent_gate_m", "must be > 0");
+  require(L.descent_gate_near_m > 0, "descent_gate_near_m", "must be > 0");
+  require(L.final_hover_gap_m >= -kMaxFinalHoverGapBelow_m && L.final_hover_gap_m < L.cut_height_m,
           "final_hover_gap_m", "must be in [-0.2, cut_height_m)");
-  require(final_hold_height_m > cut_height_m, "final_hold_height_m", "must be > cut_height_m");
-  require(final_wait_gap_m > cut_height_m && final_wait_gap_m < final_hold_height_m,
+  require(L.final_hold_height_m > L.cut_height_m, "final_hold_height_m", "must be > cut_height_m");
+  require(L.final_wait_gap_m > L.cut_height_m && L.final_wait_gap_m < L.final_hold_height_m,
           "final_wait_gap_m", "must be in (cut_height_m, final_hold_height_m)");
-  require(recovery_max_carrot_m > 0, "recovery_max_carrot_m", "must be > 0");
-  require(servo_ki >= 0, "servo_ki", "must be >= 0");
-  require(servo_max_correction_m >= 0, "servo_max_correction_m", "must be >= 0");
-  require(servo_int_max_platform_accel_mps2 >= 0, "servo_int_max_platform_accel_mps2",
+  require(L.recovery_max_carrot_m > 0, "recovery_max_carrot_m", "must be > 0");
+  require(L.servo_ki >= 0, "servo_ki", "must be >= 0");
+  require(L.servo_max_correction_m >= 0, "servo_max_correction_m", "must be >= 0");
+  require(L.servo_int_max_platform_accel_mps2 >= 0, "servo_int_max_platform_accel_mps2",
           "must be >= 0");
-  require(platform_accel_ff_gain >= 0 && platform_accel_ff_gain <= 1, "platform_accel_ff_gain",
+  require(L.platform_accel_ff_gain >= 0 && L.platform_accel_ff_gain <= 1, "platform_accel_ff_gain",
           "must be in [0, 1]");
-  require(platform_accel_ff_deadband_mps2 >= 0, "platform_accel_ff_deadband_mps2", "must be >= 0");
-  require(platform_accel_ff_full_mps2 >= platform_accel_ff_deadband_mps2,
+  require(L.platform_accel_ff_deadband_mps2 >= 0, "platform_accel_ff_deadband_mps2", "must be >= 0");
+  require(L.platform_accel_ff_full_mps2 >= L.platform_accel_ff_deadband_mps2,
           "platform_accel_ff_full_mps2", "must be >= platform_accel_ff_deadband_mps2");
-  require(gear_height_m >= 0, "gear_height_m", "must be >= 0");
-  require(cut_height_m > 0, "cut_height_m", "must be > 0");
-  require(touchdown_error_m > 0, "touchdown_error_m", "must be > 0");
-  require(final_descent_error_m > 0 && final_descent_error_m <= touchdown_error_m,
+}
+
+// LandingParams: the cut height, the touchdown error and the final descent.
+void validate_final_descent(const LandingParams& L) {
+  require(L.gear_height_m >= 0, "gear_height_m", "must be >= 0");
+  require(L.cut_height_m > 0, "cut_height_m", "must be > 0");
+  require(L.touchdown_error_m > 0, "touchdown_error_m", "must be > 0");
+  require(L.final_descent_error_m > 0 && L.final_descent_error_m <= L.touchdown_error_m,
           "final_descent_error_m", "must be in (0, touchdown_error_m]");
-  require(final_descent_rel_speed_mps > 0, "final_descent_rel_speed_mps", "must be > 0");
-  require(max_descent_near_mps >= descent_rate_near_mps, "max_descent_near_mps",
+  require(L.final_descent_rel_speed_mps > 0, "final_descent_rel_speed_mps", "must be > 0");
+  require(L.max_descent_near_mps >= L.descent_rate_near_mps, "max_descent_near_mps",
           "must be >= descent_rate_near_mps");
-  require(max_descent_final_mps >= descent_rate_final_mps, "max_descent_final_mps",
+  require(L.max_descent_final_mps >= L.descent_rate_final_mps, "max_descent_final_mps",
           "must be >= descent_rate_final_mps");
-  require(search_spiral_after_s >= 0, "search_spiral_after_s", "must be >= 0");
-  require(search_spiral_spacing_m > 0, "search_spiral_spacing_m", "must be > 0");
-  require(search_spiral_speed_mps >= 0, "search_spiral_speed_mps", "must be >= 0");
-  require(search_max_radius_m > 0, "search_max_radius_m", "must be > 0");
-  require(max_touchdown_rel_speed_mps > 0, "max_touchdown_rel_speed_mps", "must be > 0");
-  require(steady_window_s > 0, "steady_window_s", "must be > 0");
-  require(steady_tilt_deg > 0, "steady_tilt_deg", "must be > 0");
-  require(max_platform_tilt_deg > 0 && max_platform_tilt_deg < 90, "max_platform_tilt_deg",
+}
+
+// LandingParams: the search spiral.
+void validate_search_pattern(const LandingParams& L) {
+  require(L.search_spiral_after_s >= 0, "search_spiral_after_s", "must be >= 0");
+  require(L.search_spiral_spacing_m > 0, "search_spiral_spacing_m", "must be > 0");
+  require(L.search_spiral_speed_mps >= 0, "search_spiral_speed_mps", "must be >= 0");
+  require(L.search_max_radius_m > 0, "search_max_radius_m", "must be > 0");
+}
+
+// LandingParams: the touchdown test and the contact detection.
+void validate_touchdown_test(const LandingParams& L) {
+  require(L.max_touchdown_rel_speed_mps > 0, "max_touchdown_rel_speed_mps", "must be > 0");
+  require(L.steady_window_s > 0, "steady_window_s", "must be > 0");
+  require(L.steady_tilt_deg > 0, "steady_tilt_deg", "must be > 0");
+  require(L.max_platform_tilt_deg > 0 && L.max_platform_tilt_deg < 90, "max_platform_tilt_deg",
           "must be in (0, 90)");
-  require(contact_min_time_s >= 0, "contact_min_time_s", "must be >= 0");
-  require(contact_accel_frac > 0 && contact_accel_frac < 1.5, "contact_accel_frac",
+  require(L.contact_min_time_s >= 0, "contact_min_time_s", "must be >= 0");
+  require(L.contact_accel_frac > 0 && L.contact_accel_frac < 1.5, "contact_accel_frac",
           "must be in (0, 1.5)");
-  require(contact_confirm_s >= 0, "contact_confirm_s", "must be >= 0");
-  require(contact_timeout_s > contact_min_time_s, "contact_timeout_s",
+  require(L.contact_confirm_s >= 0, "contact_confirm_s", "must be >= 0");
+  require(L.contact_timeout_s > L.contact_min_time_s, "contact_timeout_s",
           "must be > contact_min_time_s");
-  require(loss_timeout_s > 0, "loss_timeout_s", "must be > 0");
-  require(recovery_loss_timeout_s > 0, "recovery_loss_timeout_s", "must be > 0");
-  require(descent_stale_s > 0, "descent_stale_s", "must be > 0");
-  require(approach_goal_max_rate_mps > 0, "approach_goal_max_rate_mps", "must be > 0");
-  require(track_max_tilt_deg > 0 && track_max_tilt_deg < 80, "track_max_tilt_deg",
+}
+
+// LandingParams: loss timeouts and re-acquisition.
+void validate_loss(const LandingParams& L) {
+  require(L.loss_timeout_s > 0, "loss_timeout_s", "must be > 0");
+  require(L.recovery_loss_timeout_s > 0, "recovery_loss_timeout_s", "must be > 0");
+  require(L.descent_stale_s > 0, "descent_stale_s", "must be > 0");
+  require(L.approach_goal_max_rate_mps > 0, "approach_goal_max_rate_mps", "must be > 0");
+  require(L.track_max_tilt_deg > 0 && L.track_max_tilt_deg < 80, "track_max_tilt_deg",
           "must be in (0, 80)");
-  require(reacquire_frames >= 1, "reacquire_frames", "must be >= 1");
-  require(go_around_low_height_m > 0, "go_around_low_height_m", "must be > 0");
-  require(go_around_error_m > touchdown_error_m, "go_around_error_m",
+  require(L.reacquire_frames >= 1, "reacquire_frames", "must be >= 1");
+}
+
+// LandingParams: the go-around.
+void validate_go_around(const LandingParams& L) {
+  require(L.go_around_low_height_m > 0, "go_around_low_height_m", "must be > 0");
+  require(L.go_around_error_m > L.touchdown_error_m, "go_around_error_m",
           "must be > touchdown_error_m");
-  require(go_around_height_m > approach_epsilon_m, "go_around_height_m",
+  require(L.go_around_height_m > L.approach_epsilon_m, "go_around_height_m",
           "must be > approach_epsilon_m");
-  require(search_min_height_m > 0, "search_min_height_m", "must be > 0");
-  require(search_yaw_rate_degps >= 0 && search_yaw_rate_degps <= 90, "search_yaw_rate_degps",
+}
+
+// LandingParams: the search, the follow point and the platform broadcast.
+void validate_search(const LandingParams& L) {
+  require(L.search_min_height_m > 0, "search_min_height_m", "must be > 0");
+  require(L.search_yaw_rate_degps >= 0 && L.search_yaw_rate_degps <= 90, "search_yaw_rate_degps",
           "must be in [0, 90]");
-  require(observe_follow_max_speed_mps > 0, "observe_follow_max_speed_mps", "must be > 0");
-  require(observe_follow_max_accel_mps2 > 0, "observe_follow_max_accel_mps2", "must be > 0");
-  require(search_predict_max_s >= 0, "search_predict_max_s", "must be >= 0");
-  require(search_expand_after_s >= 0, "search_expand_after_s", "must be >= 0");
-  require(search_climb_rate_mps >= 0, "search_climb_rate_mps", "must be >= 0");
-  require(search_first_climb_rate_mps >= 0, "search_first_climb_rate_mps", "must be >= 0");
-  require(search_max_height_m > 0, "search_max_height_m", "must be > 0");
-  require(telemetry_max_age_s >= 0, "telemetry_max_age_s", "must be >= 0");
-  require(telemetry_arrive_radius_m > 0, "telemetry_arrive_radius_m", "must be > 0");
-  require(telemetry_search_height_m > 0, "telemetry_search_height_m", "must be > 0");
-  require(skid_half_spread_m > 0, "skid_half_spread_m", "must be > 0");
-  require(skid_half_length_m > 0, "skid_half_length_m", "must be > 0");
-  require(wide_gate_margin_m >= 0, "wide_gate_margin_m", "must be >= 0");
+  require(L.observe_follow_max_speed_mps > 0, "observe_follow_max_speed_mps", "must be > 0");
+  require(L.observe_follow_max_accel_mps2 > 0, "observe_follow_max_accel_mps2", "must be > 0");
+  require(L.search_predict_max_s >= 0, "search_predict_max_s", "must be >= 0");
+  require(L.search_expand_after_s >= 0, "search_expand_after_s", "must be >= 0");
+  require(L.search_climb_rate_mps >= 0, "search_climb_rate_mps", "must be >= 0");
+  require(L.search_first_climb_rate_mps >= 0, "search_first_climb_rate_mps", "must be >= 0");
+  require(L.search_max_height_m > 0, "search_max_height_m", "must be > 0");
+  require(L.telemetry_max_age_s >= 0, "telemetry_max_age_s", "must be >= 0");
+  require(L.telemetry_arrive_radius_m > 0, "telemetry_arrive_radius_m", "must be > 0");
+  require(L.telemetry_search_height_m > 0, "telemetry_search_height_m", "must be > 0");
+}
+
+// LandingParams: the skid geometry and the wide gate.
+void validate_wide_gate(const LandingParams& L) {
+  require(L.skid_half_spread_m > 0, "skid_half_spread_m", "must be > 0");
+  require(L.skid_half_length_m > 0, "skid_half_length_m", "must be > 0");
+  require(L.wide_gate_margin_m >= 0, "wide_gate_margin_m", "must be >= 0");
   // The wide gate must be wider than the nominal cut gate (else it adds nothing) and inside
   // the go-around error (else recovery goes around before it could commit). The message
   // names whichever of the two limits sets it.
-  require(platform_half_size_m > 0, "platform_half_size_m", "must be > 0");
-  require(cut_vision_radius_m > 0, "cut_vision_radius_m", "must be > 0");
-  const char* limit = wide_gate_on_top_m() <= cut_vision_radius_m ? "platform_half_size_m"
+  require(L.platform_half_size_m > 0, "platform_half_size_m", "must be > 0");
+  require(L.cut_vision_radius_m > 0, "cut_vision_radius_m", "must be > 0");
+  const char* limit = L.wide_gate_on_top_m() <= L.cut_vision_radius_m ? "platform_half_size_m"
                                                                    : "cut_vision_radius_m";
-  require(wide_gate_m() > touchdown_error_m, limit,
+  require(L.wide_gate_m() > L.touchdown_error_m, limit,
           "leaves a wide gate (wide_gate_m()) no wider than touchdown_error_m: the top is too "
           "small for the skids, the final drift and wide_gate_margin_m, or vision too narrow");
-  require(wide_gate_m() < go_around_error_m, limit,
+  require(L.wide_gate_m() < L.go_around_error_m, limit,
           "gives a wide gate (wide_gate_m()) >= go_around_error_m");
-  require(final_decision_after_s > 0, "final_decision_after_s", "must be > 0");
-  require(recovery_decision_after_s > 0, "recovery_decision_after_s", "must be > 0");
-  require(search_give_up_s > 0, "search_give_up_s", "must be > 0");
-  require(final_decision_window_s >= 0, "final_decision_window_s", "must be >= 0");
-  require(max_landing_attempts >= 1, "max_landing_attempts", "must be >= 1");
-  require(max_wide_departures >= 0, "max_wide_departures", "must be >= 0");
+}
+
+// LandingParams: the bounded decisions.
+void validate_decisions(const LandingParams& L) {
+  require(L.final_decision_after_s > 0, "final_decision_after_s", "must be > 0");
+  require(L.recovery_decision_after_s > 0, "recovery_decision_after_s", "must be > 0");
+  require(L.search_give_up_s > 0, "search_give_up_s", "must be > 0");
+  require(L.final_decision_window_s >= 0, "final_decision_window_s", "must be >= 0");
+  require(L.max_landing_attempts >= 1, "max_landing_attempts", "must be >= 1");
+  require(L.max_wide_departures >= 0, "max_wide_departures", "must be >= 0");
+}
+
+}  // namespace
+
+void LandingParams::validate() const {
+  validate_approach(*this);
+  validate_descent(*this);
+  validate_final_descent(*this);
+  validate_search_pattern(*this);
+  validate_touchdown_test(*this);
+  validate_loss(*this);
+  validate_go_around(*this);
+  validate_search(*this);
+  validate_wide_gate(*this);
+  validate_decisions(*this);
 }
 
 void ControllerParams::validate() const {

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "lander/estimator/types.h"
+#include "lander/core/types.h"
 
 #include "common/config_error_checks.h"
 

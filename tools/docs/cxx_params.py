@@ -1,7 +1,7 @@
 """Reads the params structs of the C++ headers: each struct's fields (type, name, the comment
 on them) and each visit_fields() body (YAML key -> field, nested struct, list of structs).
 
-The params protocol (estimator/include/lander/estimator/params_io.h) lists every YAML key in a
+The params protocol (core/include/lander/core/params_io.h) lists every YAML key in a
 visit_fields(V& v, Struct& p) function beside its struct:
 
     v("exposure_ms", p.exposure_s, 1e-3);   // key, field, optional scale
@@ -164,7 +164,7 @@ def parse_file(path, rel):
     return structs, visits
 
 
-def parse_tree(repo, dirs=("estimator", "controller", "flight", "sim", "campaign", "bench")):
+def parse_tree(repo, dirs=("core", "estimator", "controller", "flight", "sim", "campaign", "bench")):
     """Every params struct of the headers under <dir>/include of the given folders."""
     structs = {}
     for d in dirs:

@@ -1,6 +1,8 @@
 // `lander docs probe PROBES.yaml`: the validation the scenario loader applies to single keys,
 // for tools/docs/gen_reference.py, which generates docs/reference/ (the allowed range of
-// every key) from it.
+// every key) from it. `lander docs transitions`: the landing mode machine's transition table
+// (ctl::mode_transitions(), the one the machine enforces) as JSON, for the reference page and
+// the diagram (tools/docs/mode_diagram.py).
 //
 // PROBES.yaml is a list of {key: DOTTED.KEY, value: VALUE}. For each item, in order, a scenario
 // that sets only that key to that value is loaded exactly as `lander run` and
@@ -18,7 +20,10 @@
 #include <string>
 
 #include "command.h"
-#include "lander/estimator/params_io.h"
+#include <nlohmann/json.hpp>
+
+#include "lander/controller/landing_controller.h"
+#include "lander/core/params_io.h"
 #include "lander/sim/scenario.h"
 
 namespace lander::cli {
@@ -77,13 +82,30 @@ int probe(const Args& rest) {
   return kExitOk;
 }
 
+// The transition table: [{from, to, trigger}, ...] in the table's order.
+int transitions(const Args& rest) {
+  ArgParser a(rest, {}, {});
+  if (!a.positional().empty()) throw UsageError("usage: lander docs transitions");
+  nlohmann::ordered_json table = nlohmann::ordered_json::array();
+  for (const ctl::ModeTransitionRule& r : ctl::mode_transitions()) {
+    table.push_back({{"from", ctl::to_string(r.from)}, {"to", ctl::to_string(r.to)}, {"trigger", r.trigger}});
+  }
+  std::cout << table.dump(2) << "\n";
+  return kExitOk;
+}
+
+constexpr const char* kDocsUsage = "usage: lander docs probe PROBES.yaml | lander docs transitions";
+
 int docs(const Args& args) {
-  if (args.empty() || args[0] != "probe") throw UsageError("usage: lander docs probe PROBES.yaml");
-  return probe(Args(args.begin() + 1, args.end()));
+  if (args.empty()) throw UsageError(kDocsUsage);
+  if (args[0] == "probe") return probe(Args(args.begin() + 1, args.end()));
+  if (args[0] == "transitions") return transitions(Args(args.begin() + 1, args.end()));
+  throw UsageError(kDocsUsage);
 }
 
 const LanderCommand reg("docs",
-                        "docs probe PROBES.yaml: validate one key at a time as a scenario would "
+                        "docs probe PROBES.yaml: validate one key at a time as a scenario would; "
+                        "docs transitions: the mode machine's transition table as JSON "
                         "(for tools/docs/gen_reference.py)",
                         Kind::Command, docs);
 

@@ -16,8 +16,8 @@
 
 #include "lander/controller/landing_controller.h"
 #include "lander/controller/params.h"
-#include "lander/estimator/state.h"
-#include "lander/estimator/types.h"
+#include "lander/core/state.h"
+#include "lander/core/types.h"
 
 namespace lander::ctl::test {
 

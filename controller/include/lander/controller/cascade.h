@@ -10,8 +10,8 @@
 
 #include "lander/controller/mixer.h"
 #include "lander/controller/params.h"
-#include "lander/estimator/state.h"
-#include "lander/estimator/types.h"
+#include "lander/core/state.h"
+#include "lander/core/types.h"
 
 namespace lander::ctl {
 

@@ -17,6 +17,7 @@
 
 #include <array>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -25,8 +26,8 @@
 #include "lander/controller/params.h"
 #include "lander/controller/platform_tracker.h"
 #include "lander/controller/trajectory.h"
-#include "lander/estimator/state.h"
-#include "lander/estimator/types.h"
+#include "lander/core/state.h"
+#include "lander/core/types.h"
 
 namespace lander::ctl {
 
@@ -54,6 +55,17 @@ enum class Mode {
 
 // Lower-case name ("search", "observe", ...), as written into summary.json.
 const char* to_string(Mode m);
+
+// One switch the mode machine may make, and what triggers it (the docs draw these).
+struct ModeTransitionRule {
+  Mode from;
+  Mode to;
+  const char* trigger;
+};
+
+// Every transition of the mode machine: the machine refuses any other
+// (ModeMachineError, controller/src/modes/transitions.h).
+const std::vector<ModeTransitionRule>& mode_transitions();
 
 // Share of the platform's estimated acceleration (magnitude a_mps2) that the visual servo
 // feeds forward: 0 up to deadband_mps2 (the estimate's noise at a constant cart speed),
@@ -163,6 +175,9 @@ class LandingController {
  public:
   // Throws ConfigError if the params are invalid.
   LandingController(const ControllerParams& params, const CameraMount& mount);
+  ~LandingController();
+  LandingController(LandingController&&) noexcept;
+  LandingController& operator=(LandingController&&) noexcept;
 
   // A vision result, delivered after its latency; obs.t_s is the frame's mid-exposure time.
   // It is applied at the next step() with the navigation state interpolated at obs.t_s. A
@@ -187,168 +202,53 @@ class LandingController {
   // Inner loop (call at >= 250 Hz with non-decreasing t_s). Runs the outer loop and the mode
   // machine when due (CascadeParams::outer_rate_hz), contact detection every call. With a
   // non-finite time, navigation state or IMU sample it holds the previous command (counted).
+  // Throws ModeMachineError (controller/src/modes/transitions.h) if the modes break the
+  // transition table or switch back within one step.
   RotorCommand step(double t_s, const NavState& nav, const ImuSample& imu);
 
   // Inputs dropped as non-finite or impossible (vision results, altitudes, inner steps).
   long rejected_inputs() const { return rejected_inputs_; }
 
-  Mode mode() const { return mode_; }
+  Mode mode() const;
   const std::vector<ModeTransition>& transitions() const { return transitions_; }
-  bool landed() const { return mode_ == Mode::kLanded; }
-  bool aborted() const { return mode_ == Mode::kAborted; }  ///< terminal: see Mode::kAborted
+  bool landed() const { return mode() == Mode::kLanded; }
+  bool aborted() const { return mode() == Mode::kAborted; }  ///< terminal: see Mode::kAborted
   /// Attempts, the latest decision and every decision event (see LandingDecisionLog).
-  const LandingDecisionLog& decision_log() const { return decisions_; }
+  const LandingDecisionLog& decision_log() const;
   /// Every loss of the target after it was first acquired, in order (see Reacquisition).
-  const std::vector<Reacquisition>& reacquisitions() const { return reacquisitions_; }
-  const LandingDiagnostics& diagnostics() const { return diag_; }
-  const CascadeDiagnostics& cascade_diagnostics() const { return cascade_.diagnostics(); }
-  const PlatformTracker& tracker() const { return tracker_; }
-  const ControllerParams& params() const { return p_; }
+  const std::vector<Reacquisition>& reacquisitions() const;
+  const LandingDiagnostics& diagnostics() const;
+  const CascadeDiagnostics& cascade_diagnostics() const;
+  const PlatformTracker& tracker() const;
+  const ControllerParams& params() const;
   /// follow_path: the route's end was reached (no candidate ahead for end_after_s); the
   /// vehicle holds there. NaN time before.
-  bool route_ended() const { return route_ended_; }
-  double route_end_t() const { return route_end_t_; }
+  bool route_ended() const;
+  double route_end_t() const;
   /// follow_path statistics: outer steps in follow_path and those with a target point.
-  long path_steps() const { return path_steps_; }
-  long path_target_steps() const { return path_target_steps_; }
+  long path_steps() const;
+  long path_target_steps() const;
   /// Platform broadcasts accepted (on_platform_telemetry), and outer steps whose search
   /// flew to one (transit and pattern around it).
-  long telemetry_received() const { return telemetry_received_; }
-  long telemetry_search_steps() const { return telemetry_search_steps_; }
+  long telemetry_received() const;
+  long telemetry_search_steps() const;
 
  private:
-  void switch_to(double t_s, Mode to, const std::string& reason, const NavState& nav);
+  struct Impl;  // the modes and what they share (controller/src/modes/)
   Setpoint run_mode_machine(double t_s, const NavState& nav);
   void detect_contact(double t_s, const ImuSample& imu, const NavState& nav);
-  bool in_view(double t_s, double timeout_s) const;
-  double platform_z() const;  // platform height of the last fix, even after the history
-                              // was dropped; 0 (ground) before the first
-  Setpoint hold(const Eigen::Vector3d& p) const;
-  // Height in W that is h_m above the surface below (m): by the fused altitude (above the W
-  // origin plane without one), and at least as high by the ultrasonic's clearance where it
-  // has one (AltitudeEstimate::clearance_m: what is below, whatever the fusion believes).
-  double z_above_surface(const NavState& nav, double h_m) const;
-  // z_above_surface at search_min_height_m.
-  double search_min_z(const NavState& nav) const;
-  // Search, go-around and abort: raises the held height to search_min_z (every step, so a
-  // height estimate that was wrong cannot hold the vehicle low); logs a "low_clearance" event
-  // once per mode when the ultrasonic's clearance is what raises it.
-  void keep_min_height(double t_s, const NavState& nav);
-  // Outward spiral t_spiral_s after it starts: offset from its centre and velocity relative
-  // to it (both zero before it starts or with search_spiral_speed_mps = 0).
-  void spiral_offset(double t_spiral_s, Eigen::Vector2d* off, Eigen::Vector2d* v) const;
-  // Search / go-around after a loss: the motion model's prediction of the platform now and
-  // its velocity (PlatformTracker::motion()); false (and the history dropped) when there is
-  // no fix or the last is older than search_predict_max_s.
-  bool predict_platform(double t_s, Eigen::Vector2d* p, Eigen::Vector2d* v);
-  // Search after a loss: the prediction, then an expanding pattern around it (see .cpp).
-  Setpoint search_after_loss(double t_s);
-  // The platform's broadcast position predicted to t_s with its velocity, and that velocity;
-  // false without a message sampled within telemetry_max_age_s.
-  bool broadcast_platform(double t_s, Eigen::Vector2d* p, Eigen::Vector2d* v) const;
-  // First search with a broadcast and no fix: fly to it, then the pattern around it.
-  Setpoint search_at_broadcast(double t_s, double dt, const NavState& nav, const Eigen::Vector2d& p,
-                               const Eigen::Vector2d& v);
-  // The follow point (observe, the broadcast search): starts at the vehicle with its velocity
-  // relative to v_plat (bounded by observe_follow_max_speed_mps); each step moves with v_plat
-  // and closes the gap to `target` at a bounded catch-up speed and acceleration.
-  void start_follow_point(const NavState& nav, const Eigen::Vector2d& v_plat);
-  void slew_follow_point(const Eigen::Vector2d& target, const Eigen::Vector2d& v_plat, double dt);
-  // The expanding part of a search around a (moving) centre, t_exp_s after it began: the
-  // outward spiral added to sp, the heading sweep and the climb.
-  void expand_search(double t_exp_s, Setpoint* sp);
-  // The search's climb t_climb_s after it began at rate_mps: sets sp's height and vertical
-  // velocity.
-  void climb(double t_climb_s, double rate_mps, Setpoint* sp) const;
-  // Ends the landing in aborted with `why` (search_give_up_s, or the last attempt failed).
-  void give_up(double t_s, const std::string& why, const NavState& nav);
-  // Ends the current attempt without a landing: to `next` (go-around or search), or to
-  // aborted once max_landing_attempts are used; logs the decision.
-  void end_attempt(double t_s, Mode next, const std::string& why, const NavState& nav);
-  // A loss of the target: opens a Reacquisition record with the motion model of now.
-  void declare_loss(double t_s);
-  // Closes an open Reacquisition record once the target is re-acquired.
-  void check_reacquired(double t_s);
-  void log_event(double t_s, const std::string& what, const std::string& reason);
-  void decide(double t_s, const std::string& decision, const std::string& reason);
+  void start(double t_s, const NavState& nav);
+  void apply_outer_limits();
 
-  // follow_path (seed 003): one outer step of the guidance law.
-  Setpoint follow_path_step(double t_s, const NavState& nav);
-  // follow_path with no target point this step: hold, and declare the route's end after
-  // end_after_s.
-  Setpoint no_path_target(double t_s, const Eigen::Vector2d& here);
-  Setpoint pixel_distribution_step(double t_s, const NavState& nav, const GroundView& g,
-                                   const Eigen::Vector2d& U, const Eigen::Vector2d& v_img,
-                                   const std::vector<Eigen::Vector2d>& candidates);
-
-  ControllerParams p_;
-  CameraMount mount_;
-  PathPoints path_;                  // latest route candidates
-  bool have_path_{false};
-  int path_streak_{0};               // consecutive frames with >= enter_min_points candidates
-  double last_path_t_{-1e9};         // last frame with a candidate (s)
-  double last_target_t_{0.0};        // follow_path: last step with a target point (s)
-  bool path_dir_known_{false};
-  Eigen::Vector2d path_dir_W_{Eigen::Vector2d::UnitX()};
-  double path_z_{0.0};               // follow_path: constant height in W (m)
-  std::vector<Eigen::Vector2d> path_trail_;  // flown positions (dead-reckoned), 0.1 m apart
-  Eigen::Vector2d path_dr_{Eigen::Vector2d::Zero()};  // dead-reckoned position (m)
-  double path_dr_t_{0.0};
-  bool route_ended_{false};
-  double route_end_t_{std::numeric_limits<double>::quiet_NaN()};
-  long path_steps_{0}, path_target_steps_{0};
-  CascadeController cascade_;
-  PlatformTracker tracker_;
+  std::unique_ptr<Impl> impl_;
   std::vector<PlatformObservation> pending_;
-  AltitudeEstimate altitude_;
-  Mode mode_{Mode::kSearch};
   std::vector<ModeTransition> transitions_;
-  LandingDiagnostics diag_;
   bool started_{false};
-  double yaw_hold_{0.0};         // heading setpoint (rad)
-  double search_t0_{0.0};        // start of the current sweep pattern (s)
-  double search_climb_z_{-std::numeric_limits<double>::infinity()};  // highest climb setpoint of
-                                 // the first search, kept over a fix not yet acquired (m)
-  double search_yaw0_{0.0};      // heading at search entry (rad)
   double last_outer_t_{0.0};
-  Eigen::Vector3d hold_p_{Eigen::Vector3d::Zero()};    // search / go-around target
-  Eigen::Vector3d follow_p_{Eigen::Vector3d::Zero()};  // observe: slewed platform follow point
-  Eigen::Vector2d follow_catch_v_{Eigen::Vector2d::Zero()};  // its velocity rel. to platform
-  CubicTrajectory approach_;
-  double recovery_h_sp_{0.0};  // recovery: gear-clearance setpoint above the top (m)
-  Eigen::Vector2d servo_int_{Eigen::Vector2d::Zero()};  // visual-servo integral (m)
-  double platform_vz_lp_{0.0};  // platform vertical velocity, low-passed (m/s), recovery
-  double cut_t_{0.0};
-  double contact_accum_s_{0.0};
   double last_inner_t_{0.0};
   Setpoint last_sp_;
   RotorCommand last_cmd_;
   long rejected_inputs_{0};
-  // Issue 10: bounded decisions, search after a loss, records.
-  double final_t0_{std::numeric_limits<double>::quiet_NaN()};  // final stage entry (s)
-  double recovery_t0_{0.0};          // recovery entry (s)
-  double search_entry_t_{0.0};       // search entry (s): search_give_up_s counts from it
-  bool wide_committed_{false};
-  int wide_departures_{0};           // times the error left the wide gate after the commit
-  double wide_left_t_{std::numeric_limits<double>::quiet_NaN()};  // outside since (s), NaN
-  bool search_after_loss_{false};    // search entered with a fix history
-  double search_t_seen_{0.0};        // last fix before that search's loss (s)
-  Eigen::Vector2d search_centre_{Eigen::Vector2d::Zero()};  // pattern centre (m)
-  PlatformMotion loss_motion_;       // motion model when the open loss was declared
-  double last_platform_z_{0.0};      // height of the last fix seen (m), see platform_z()
-  LandingDecisionLog decisions_;
-  std::vector<Reacquisition> reacquisitions_;
-  // The platform's broadcast (on_platform_telemetry).
-  std::optional<GpsSample> broadcast_;  // the newest accepted message
-  long telemetry_received_{0}, telemetry_search_steps_{0};
-  bool broadcast_following_{false};  // the follow point flies to the broadcast
-  double observe_entry_t_{0.0};       // when observe was last entered (approach_entry_wait_s)
-  // Observe's height above the platform (m), fixed at entry (the height where the target was
-  // acquired): the hold rides on the platform's height seen by vision, not on absolute W.
-  double observe_above_platform_m_{std::numeric_limits<double>::quiet_NaN()};
-  bool low_clearance_logged_{false};  // keep_min_height's event, once per mode
-  double broadcast_arrived_t_{std::numeric_limits<double>::quiet_NaN()};  // this search came
-                                     // within telemetry_arrive_radius_m of it (s)
 };
 
 }  // namespace lander::ctl

@@ -9,7 +9,7 @@
 #include <Eigen/Core>
 
 #include "lander/controller/path_guidance.h"
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 
 namespace lander::ctl {
 

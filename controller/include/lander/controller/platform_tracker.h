@@ -12,9 +12,9 @@
 
 #include "lander/controller/params.h"
 #include "lander/controller/trajectory.h"
-#include "lander/estimator/sample_screen.h"
-#include "lander/estimator/state.h"
-#include "lander/estimator/types.h"
+#include "lander/core/sample_screen.h"
+#include "lander/core/state.h"
+#include "lander/core/types.h"
 
 namespace lander::ctl {
 

@@ -1,4 +1,4 @@
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 
 #include <yaml-cpp/eventhandler.h>
 

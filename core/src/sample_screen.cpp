@@ -1,4 +1,4 @@
-#include "lander/estimator/sample_screen.h"
+#include "lander/core/sample_screen.h"
 
 #include <cmath>
 

@@ -1,4 +1,4 @@
-#include "lander/estimator/types.h"
+#include "lander/core/types.h"
 
 #include <algorithm>
 #include <cmath>

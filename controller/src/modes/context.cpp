@@ -1,0 +1,153 @@
+// The services the landing modes share (context.h).
+#include "modes/context.h"
+
+#include <algorithm>
+
+#include <fmt/format.h>
+
+namespace lander::ctl::modes {
+namespace {
+
+// How far the lowest skid end lies below the level gear (<= 0, m), for a vehicle tilted
+// relative to the platform: n_B is the platform's normal in body axes. The skid ends
+// c = (+-Lx, +-Ly, -gear_h) lie n_B . c from the CoM along the normal, the lowest at
+// -Lx |n_x| - Ly |n_y| - gear_h n_z; a level vehicle's at -gear_h. At 3.7 deg of pitch a
+// 0.21 m skid end is 1.4 cm below the level gear: the skids meet the top while the
+// clearance of the CoM minus gear_h still reads 1.3 cm (envelope default-0011 sat on the top
+// like that for 0.8 s with 3.5 cm of error, never cut, and was dragged off by the braking cart).
+double skid_drop_m(const Eigen::Vector3d& n_B, const LandingParams& L) {
+  return L.gear_height_m * (1.0 - std::abs(n_B.z())) - L.skid_half_length_m * std::abs(n_B.x()) -
+         L.skid_half_spread_m * std::abs(n_B.y());
+}
+
+}  // namespace
+
+LandingContext::LandingContext(const ControllerParams& params, const CameraMount& mount_in)
+    : p(params), mount(mount_in), cascade(params.vehicle, params.cascade), tracker(params.tracker, mount_in) {}
+
+bool LandingContext::in_view(double t_s, double timeout_s) const {
+  return t_s - tracker.last_detection_t() <= timeout_s;
+}
+
+double LandingContext::platform_z() const {
+  return tracker.has_fix() ? tracker.latest().p_W_m.z() : last_platform_z_;
+}
+
+double LandingContext::z_above_surface(const NavState& nav, double h_m) const {
+  if (!altitude.valid) return h_m;
+  const double by_fusion = nav.p_W_m.z() + (h_m - altitude.h_surface_m);
+  if (!std::isfinite(altitude.clearance_m)) return by_fusion;
+  return std::max(by_fusion, nav.p_W_m.z() + (h_m - altitude.clearance_m));
+}
+
+double LandingContext::search_min_z(const NavState& nav) const {
+  return z_above_surface(nav, p.landing.search_min_height_m);
+}
+
+// A fused height metres off (a degraded GPS taken in at the start, wandering with its error)
+// once held the search 1 m over the ground while it believed 4.5 m: the floor is re-applied
+// every step, and the ultrasonic's own clearance takes part in it.
+void LandingContext::keep_min_height(double t_s, const NavState& nav) {
+  const double z_min = search_min_z(nav);
+  if (hold_p.z() >= z_min) return;
+  if (!low_clearance_logged && std::isfinite(altitude.clearance_m) &&
+      altitude.clearance_m < p.landing.search_min_height_m &&
+      altitude.clearance_m < altitude.h_surface_m) {
+    low_clearance_logged = true;
+    log_event(t_s, "low_clearance",
+              fmt::format("ultrasonic clearance {:.2f} m (fused height above the surface {:.2f} m) "
+                          "under search_min_height_m {:.2f} m in {}: climbing",
+                          altitude.clearance_m, altitude.h_surface_m,
+                          p.landing.search_min_height_m, to_string(mode)));
+  }
+  hold_p.z() = z_min;
+}
+
+Setpoint LandingContext::hold(const Eigen::Vector3d& at) const {
+  Setpoint sp;
+  sp.p_W_m = at;
+  sp.yaw_rad = yaw_hold_rad;
+  return sp;
+}
+
+bool LandingContext::predict_platform(double t_s, Eigen::Vector2d* pos, Eigen::Vector2d* vel) {
+  if (!tracker.has_fix()) return false;
+  if (t_s - tracker.latest().t_s > p.landing.search_predict_max_s) {
+    // Too old to predict from: forget it (a re-acquisition starts a fresh history).
+    tracker.clear();
+    return false;
+  }
+  const PlatformMotion m = tracker.motion();
+  *pos = m.position_at(t_s).head<2>();
+  *vel = m.velocity_at(t_s).head<2>();
+  return true;
+}
+
+bool LandingContext::broadcast_platform(double t_s, Eigen::Vector2d* pos, Eigen::Vector2d* vel) const {
+  const double max_age = p.landing.telemetry_max_age_s;
+  if (!broadcast || max_age <= 0.0) return false;
+  const double age = t_s - broadcast->t_s;
+  if (age < 0.0 || age > max_age) return false;
+  *vel = broadcast->v_W_mps.head<2>();
+  *pos = broadcast->p_W_m.head<2>() + age * *vel;
+  return true;
+}
+
+void LandingContext::log_event(double t_s, const std::string& what, const std::string& reason) {
+  decisions.events.push_back({t_s, decisions.attempts, what, reason});
+}
+
+void LandingContext::decide(double t_s, const std::string& decision, const std::string& reason) {
+  decisions.decision = decision;
+  decisions.reason = reason;
+  decisions.t_s = t_s;
+  log_event(t_s, decision, reason);
+}
+
+void LandingContext::declare_loss(double t_s) {
+  Reacquisition r;
+  r.t_last_seen_s = tracker.last_detection_t();
+  r.t_lost_s = t_s;
+  r.lost_in = mode;
+  reacquisitions.push_back(r);
+  loss_motion_ = tracker.motion();
+}
+
+void LandingContext::check_reacquired(double t_s) {
+  if (reacquisitions.empty()) return;
+  Reacquisition& r = reacquisitions.back();
+  if (!std::isnan(r.t_reacquired_s)) return;
+  if (tracker.last_detection_t() <= r.t_last_seen_s) return;
+  if (tracker.keyframe_streak() < p.landing.reacquire_frames || !in_view(t_s, p.landing.loss_timeout_s)) {
+    return;
+  }
+  r.t_reacquired_s = t_s;
+  if (!loss_motion_.valid) return;
+  // The first fix after the loss against where the model of the loss put the platform then.
+  for (const PlatformFix& f : tracker.fixes()) {
+    if (f.t_s <= r.t_last_seen_s) continue;
+    r.prediction_error_m = horizontal(f.p_W_m - loss_motion_.position_at(f.t_s));
+    break;
+  }
+}
+
+void LandingContext::update_platform_diagnostics(double t_s, const NavState& nav) {
+  const LandingParams& L = p.landing;
+  diag.num_fixes = tracker.num_fixes();
+  diag.keyframe_streak = tracker.keyframe_streak();
+  diag.platform_known = tracker.has_fix();
+  if (!tracker.has_fix()) return;
+  last_platform_z_ = tracker.latest().p_W_m.z();
+  // The platform now, from the relative vector (navigation drift cancels), in W.
+  diag.platform_W_m = nav.p_W_m + tracker.relative_now(t_s);
+  diag.platform_v_W_mps = tracker.velocity();
+  diag.horizontal_error_m = horizontal(diag.platform_W_m - nav.p_W_m);
+  diag.gear_clearance_m = nav.p_W_m.z() - diag.platform_W_m.z() - L.gear_height_m;
+  // The platform's normal in body axes now: the last fix's normal (vision's relative
+  // attitude, put in W with the navigation attitude of that frame) brought back with the
+  // navigation attitude now, so the attitude's own error cancels but for its change since.
+  const Eigen::Vector3d n_B = nav.q_WB.conjugate() * tracker.latest().n_W;
+  diag.skid_drop_m = skid_drop_m(n_B.normalized(), L);
+}
+
+}  // namespace lander::ctl::modes

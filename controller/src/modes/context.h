@@ -1,0 +1,120 @@
+// What the landing modes share: the controller's inputs, its beliefs about the platform, its
+// records, and the services more than one mode uses (PX4's flight tasks share the vehicle's
+// state the same way; each mode's own state lives in its class, modes.h).
+#pragma once
+
+#include <cmath>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "lander/controller/cascade.h"
+#include "lander/controller/landing_controller.h"
+#include "lander/controller/params.h"
+#include "lander/controller/platform_tracker.h"
+
+namespace lander::ctl::modes {
+
+// One outer step's inputs: its time, the time since the previous pass of the machine
+// (0 for a mode entered within this step) and the navigation state.
+struct Tick {
+  double t_s{0.0};
+  double dt_s{0.0};
+  const NavState& nav;
+};
+
+// The latest route candidates of the estimator's path stage (on_path).
+struct RouteInput {
+  PathPoints points;
+  bool have{false};
+  int streak{0};          ///< consecutive frames with >= enter_min_points candidates
+  double last_t_s{-1e9};  ///< last frame with a candidate (s)
+};
+
+// Fixes before the platform velocity is fed forward (observe, the observe entry): the velocity
+// filter starts at zero with 1 m/s of uncertainty, and 6 fixes (0.2 s at 30 Hz) keep its first
+// noisy updates out of the follow. A 1 m/s cart acquired at the edge of the view leaves it
+// within ~1 s unless the follow starts at once, so this must stay small.
+constexpr int kMinFixesForFeedForward = 6;
+
+inline double horizontal(const Eigen::Vector3d& v) { return v.head<2>().norm(); }
+
+inline double yaw_of(const Eigen::Quaterniond& q_WB) {
+  const Eigen::Vector3d x = q_WB * Eigen::Vector3d::UnitX();
+  return std::atan2(x.y(), x.x());
+}
+
+class LandingContext {
+ public:
+  LandingContext(const ControllerParams& params, const CameraMount& mount);
+
+  // --- what the controller knows -------------------------------------------------------
+  ControllerParams p;
+  CameraMount mount;
+  CascadeController cascade;
+  PlatformTracker tracker;
+  AltitudeEstimate altitude;
+  std::optional<GpsSample> broadcast;  ///< the newest accepted platform broadcast
+  RouteInput route;
+  Mode mode{Mode::kSearch};  ///< the mode in charge (set by the machine)
+  LandingDiagnostics diag;
+  double yaw_hold_rad{0.0};  ///< heading setpoint (rad)
+  /// Search, go-around, abort, observe and follow_path: the point held; each sets it on entry.
+  Eigen::Vector3d hold_p{Eigen::Vector3d::Zero()};
+  bool low_clearance_logged{false};  ///< keep_min_height's event, once per mode
+  long telemetry_received{0};        ///< broadcasts accepted
+  long telemetry_search_steps{0};    ///< outer steps whose search flew to a broadcast
+  /// follow_path: the route's end was reached (no candidate ahead for end_after_s); the
+  /// vehicle holds there and the search never follows a route again. NaN time before.
+  bool route_ended{false};
+  double route_end_t_s{std::numeric_limits<double>::quiet_NaN()};
+
+  // --- records for summary.json --------------------------------------------------------
+  LandingDecisionLog decisions;
+  std::vector<Reacquisition> reacquisitions;
+
+  // --- services ------------------------------------------------------------------------
+  // The target detected within timeout_s before t_s.
+  bool in_view(double t_s, double timeout_s) const;
+  // Platform height of the last fix, even after the history was dropped; 0 (ground) before
+  // the first.
+  double platform_z() const;
+  // Height in W that is h_m above the surface below (m): by the fused altitude (above the W
+  // origin plane without one), and at least as high by the ultrasonic's clearance where it
+  // has one (AltitudeEstimate::clearance_m: what is below, whatever the fusion believes).
+  double z_above_surface(const NavState& nav, double h_m) const;
+  // z_above_surface at search_min_height_m.
+  double search_min_z(const NavState& nav) const;
+  // Search, go-around and abort: raises the held height to search_min_z (every step, so a
+  // height estimate that was wrong cannot hold the vehicle low); logs a "low_clearance" event
+  // once per mode when the ultrasonic's clearance is what raises it.
+  void keep_min_height(double t_s, const NavState& nav);
+  // A setpoint holding p with the held heading.
+  Setpoint hold(const Eigen::Vector3d& p) const;
+  // Search / go-around after a loss: the motion model's prediction of the platform now and
+  // its velocity (PlatformTracker::motion()); false (and the history dropped) when there is
+  // no fix or the last is older than search_predict_max_s.
+  bool predict_platform(double t_s, Eigen::Vector2d* p, Eigen::Vector2d* v);
+  // The platform's broadcast position predicted to t_s with its velocity, and that velocity;
+  // false without a message sampled within telemetry_max_age_s.
+  bool broadcast_platform(double t_s, Eigen::Vector2d* p, Eigen::Vector2d* v) const;
+  // The decision log: an event, and a decision (an event that is also the latest decision).
+  void log_event(double t_s, const std::string& what, const std::string& reason);
+  void decide(double t_s, const std::string& decision, const std::string& reason);
+  // A loss of the target: opens a Reacquisition record with the motion model of now.
+  void declare_loss(double t_s);
+  // Closes an open Reacquisition record once the target is re-acquired.
+  void check_reacquired(double t_s);
+  // The platform's beliefs of this step in diag (platform now, error, clearance, skid drop).
+  void update_platform_diagnostics(double t_s, const NavState& nav);
+
+ private:
+  PlatformMotion loss_motion_;   // motion model when the open loss was declared
+  double last_platform_z_{0.0};  // height of the last fix seen (m), see platform_z()
+};
+
+}  // namespace lander::ctl::modes
