@@ -145,20 +145,10 @@ YAML::Node to_node(const std::vector<double>& v, bool scalar) {
 const std::set<std::string> kKinds = {"uniform", "normal", "loguniform", "integer",
                                       "choice",  "polar",  "constant"};
 
-}  // namespace
-
-// Distribution kinds (one per mapping; `min` / `max` truncate `normal`):
-//   uniform: [lo, hi] | [[lo...], [hi...]]       per component for a list key
-//   normal: {mean: m, std: s}, min: a, max: b    m, s, a, b numbers or lists; truncated by
-//                                                rejection (at most 10000 draws)
-//   loguniform: [lo, hi]                         0 < lo <= hi; uniform in log
-//   integer: [lo, hi]                            whole numbers, both ends included
-//   choice: [v1, v2, ...], weights: [w1, ...]    any YAML values; weights optional
-//   polar: {radius: [r0, r1], direction_deg: [d0, d1], center: [x, y], z: z | [z0, z1],
-//           uniform_in: radius | area}           a 2- or 3-vector at a random bearing
-//   constant: v
-YAML::Node Dispersion::sample(std::uint64_t stream_seed, const YAML::Node& like) const {
-  Rng rng(stream_seed);
+// The spec's one distribution kind; its other keys must be min / max (normal) or weights
+// (choice).
+std::string distribution_kind(const YAML::Node& spec, const std::string& key,
+                              const std::string& where) {
   std::string kind;
   for (auto it = spec.begin(); it != spec.end(); ++it) {
     const std::string k = it->first.as<std::string>();
@@ -173,49 +163,56 @@ YAML::Node Dispersion::sample(std::uint64_t stream_seed, const YAML::Node& like)
   }
   if (kind.empty()) fail(where, "'" + key + "': no distribution given");
   const std::string what = "'" + key + "' " + kind;
-  const YAML::Node arg = child(spec, kind);
   if (kind != "normal" && (child(spec, "min").IsDefined() || child(spec, "max").IsDefined())) {
     fail(where, what + ": min/max apply to normal only");
   }
   if (kind != "choice" && child(spec, "weights").IsDefined()) {
     fail(where, what + ": weights apply to choice only");
   }
-  if (kind == "choice" || kind == "constant") {
-    std::vector<YAML::Node> options;
-    if (kind == "constant") {
-      options.push_back(arg);
-    } else {
-      if (!arg.IsSequence() || arg.size() == 0) fail(where, what + ": expected a non-empty list");
-      for (std::size_t i = 0; i < arg.size(); ++i) options.push_back(arg[i]);
+  return kind;
+}
+
+// `choice` and `constant`: the options, their weights, and each option of the key's shape.
+ChoiceDistribution parse_choice(const YAML::Node& spec, const std::string& kind,
+                                const YAML::Node& like, const std::string& where,
+                                const std::string& what) {
+  const YAML::Node arg = child(spec, kind);
+  std::vector<YAML::Node> options;
+  if (kind == "constant") {
+    options.push_back(arg);
+  } else {
+    if (!arg.IsSequence() || arg.size() == 0) fail(where, what + ": expected a non-empty list");
+    for (std::size_t i = 0; i < arg.size(); ++i) options.push_back(arg[i]);
+  }
+  ChoiceDistribution d;
+  d.weights.assign(options.size(), 1.0);
+  if (const YAML::Node wn = child(spec, "weights"); wn.IsDefined()) {
+    if (!wn.IsSequence() || wn.size() != options.size()) {
+      fail(where, what + ": weights must list one number per choice");
     }
-    std::vector<double> w(options.size(), 1.0);
-    if (const YAML::Node wn = child(spec, "weights"); wn.IsDefined()) {
-      if (!wn.IsSequence() || wn.size() != options.size()) {
-        fail(where, what + ": weights must list one number per choice");
-      }
-      for (std::size_t i = 0; i < w.size(); ++i) {
-        w[i] = number(wn[i], where, what + " weights");
-        if (w[i] < 0) fail(where, what + ": weights must be >= 0");
-      }
-    }
-    double total = 0;
-    for (double x : w) total += x;
-    if (!(total > 0)) fail(where, what + ": weights must not all be 0");
-    // Every option must have the key's shape (a list of the same length, or a scalar).
-    for (const YAML::Node& o : options) {
-      if (like.IsSequence() != o.IsSequence() || (like.IsSequence() && like.size() != o.size()) ||
-          (!o.IsScalar() && !o.IsSequence())) {
-        fail(where, what + ": value '" + YAML::Dump(o) + "' does not have the shape of the key (" +
-                        (like.IsSequence() ? std::to_string(like.size()) + " numbers" : "one value") + ")");
-      }
-    }
-    const double u = rng.uniform() * total;
-    double acc = 0;
-    for (std::size_t i = 0; i < options.size(); ++i) {
-      acc += w[i];
-      if (u < acc || i + 1 == options.size()) return YAML::Clone(options[i]);
+    for (std::size_t i = 0; i < d.weights.size(); ++i) {
+      d.weights[i] = number(wn[i], where, what + " weights");
+      if (d.weights[i] < 0) fail(where, what + ": weights must be >= 0");
     }
   }
+  for (double x : d.weights) d.total_weight += x;
+  if (!(d.total_weight > 0)) fail(where, what + ": weights must not all be 0");
+  // Every option must have the key's shape (a list of the same length, or a scalar).
+  for (const YAML::Node& o : options) {
+    if (like.IsSequence() != o.IsSequence() || (like.IsSequence() && like.size() != o.size()) ||
+        (!o.IsScalar() && !o.IsSequence())) {
+      fail(where, what + ": value '" + YAML::Dump(o) + "' does not have the shape of the key (" +
+                      (like.IsSequence() ? std::to_string(like.size()) + " numbers" : "one value") + ")");
+    }
+  }
+  // Detached from the campaign file's tree: a draw hands out a copy of one of them.
+  for (const YAML::Node& o : options) d.options.push_back(YAML::Clone(o));
+  return d;
+}
+
+// The number of components of a key a numeric distribution can disperse (1 for a scalar).
+std::size_t numeric_components(const YAML::Node& like, const std::string& key,
+                               const std::string& where, const std::string& what) {
   if (like.IsScalar()) {
     // A numeric key? Strings only take choice / constant.
     try {
@@ -223,58 +220,53 @@ YAML::Node Dispersion::sample(std::uint64_t stream_seed, const YAML::Node& like)
     } catch (const YAML::Exception&) {
       fail(where, what + ": '" + key + "' is not a number; use choice or constant");
     }
-  } else if (!like.IsSequence()) {
-    fail(where, "'" + key + "' is a section, not a value: disperse its keys");
+    return 1;
   }
-  const bool scalar = like.IsScalar();
-  const std::size_t n = scalar ? 1 : like.size();
-  std::vector<double> v(n);
-  if (kind == "uniform" || kind == "loguniform" || kind == "integer") {
-    const auto [lo, hi] = bounds(arg, n, where, what);
-    for (std::size_t i = 0; i < n; ++i) {
-      const double u = rng.uniform();
-      if (kind == "uniform") {
-        v[i] = lo[i] + (hi[i] - lo[i]) * u;
-      } else if (kind == "loguniform") {
-        if (!(lo[i] > 0)) fail(where, what + ": bounds must be > 0");
-        v[i] = std::exp(std::log(lo[i]) + (std::log(hi[i]) - std::log(lo[i])) * u);
-      } else {
-        if (lo[i] != std::floor(lo[i]) || hi[i] != std::floor(hi[i])) {
-          fail(where, what + ": bounds must be whole numbers");
-        }
-        v[i] = std::min(hi[i], lo[i] + std::floor((hi[i] - lo[i] + 1) * u));
-      }
+  if (!like.IsSequence()) fail(where, "'" + key + "' is a section, not a value: disperse its keys");
+  return like.size();
+}
+
+// `uniform`, `loguniform` and `integer`: [lo, hi] per component.
+Distribution parse_bounded(const std::string& kind, const YAML::Node& arg, std::size_t n,
+                           const std::string& where, const std::string& what) {
+  const auto [lo, hi] = bounds(arg, n, where, what);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (kind == "loguniform" && !(lo[i] > 0)) fail(where, what + ": bounds must be > 0");
+    if (kind == "integer" && (lo[i] != std::floor(lo[i]) || hi[i] != std::floor(hi[i]))) {
+      fail(where, what + ": bounds must be whole numbers");
     }
-    if (kind == "integer" && scalar) return YAML::Node(static_cast<long long>(v[0]));
-    return to_node(v, scalar);
   }
-  if (kind == "normal") {
-    if (!arg.IsMap()) fail(where, what + ": expected {mean: m, std: s}");
-    for (auto it = arg.begin(); it != arg.end(); ++it) {
-      const std::string k = it->first.as<std::string>();
-      if (k != "mean" && k != "std") fail(where, what + ": unknown key '" + k + "' (mean, std)");
-    }
-    const auto mean = numbers(child(arg, "mean"), n, where, what + " mean");
-    const auto sd = numbers(child(arg, "std"), n, where, what + " std");
-    std::vector<double> lo(n, -INFINITY), hi(n, INFINITY);
-    if (child(spec, "min").IsDefined()) lo = numbers(child(spec, "min"), n, where, what + " min");
-    if (child(spec, "max").IsDefined()) hi = numbers(child(spec, "max"), n, where, what + " max");
-    for (std::size_t i = 0; i < n; ++i) {
-      if (sd[i] < 0) fail(where, what + ": std must be >= 0");
-      if (lo[i] > hi[i]) fail(where, what + ": min > max");
-      int tries = 0;
-      do {
-        if (++tries > 10000) {
-          fail(where, fmt::format("{}: [min, max] = [{}, {}] is too improbable for mean {} and "
-                                  "std {} (10000 draws, none inside)",
-                                  what, lo[i], hi[i], mean[i], sd[i]));
-        }
-        v[i] = mean[i] + sd[i] * rng.normal();
-      } while (v[i] < lo[i] || v[i] > hi[i]);
-    }
-    return to_node(v, scalar);
+  if (kind == "uniform") return UniformDistribution{lo, hi};
+  if (kind == "loguniform") return LogUniformDistribution{lo, hi};
+  return IntegerDistribution{lo, hi};
+}
+
+// `normal: {mean, std}` with the spec's optional `min` / `max`, per component.
+NormalDistribution parse_normal(const YAML::Node& spec, std::size_t n, const std::string& where,
+                                const std::string& what) {
+  const YAML::Node arg = child(spec, "normal");
+  if (!arg.IsMap()) fail(where, what + ": expected {mean: m, std: s}");
+  for (auto it = arg.begin(); it != arg.end(); ++it) {
+    const std::string k = it->first.as<std::string>();
+    if (k != "mean" && k != "std") fail(where, what + ": unknown key '" + k + "' (mean, std)");
   }
-  // polar
+  NormalDistribution d;
+  d.mean = numbers(child(arg, "mean"), n, where, what + " mean");
+  d.std = numbers(child(arg, "std"), n, where, what + " std");
+  d.min.assign(n, -INFINITY);
+  d.max.assign(n, INFINITY);
+  if (child(spec, "min").IsDefined()) d.min = numbers(child(spec, "min"), n, where, what + " min");
+  if (child(spec, "max").IsDefined()) d.max = numbers(child(spec, "max"), n, where, what + " max");
+  for (std::size_t i = 0; i < n; ++i) {
+    if (d.std[i] < 0) fail(where, what + ": std must be >= 0");
+    if (d.min[i] > d.max[i]) fail(where, what + ": min > max");
+  }
+  return d;
+}
+
+// `polar: {radius, direction_deg, center, z, uniform_in}` for a key of 2 or 3 numbers.
+PolarDistribution parse_polar(const YAML::Node& arg, std::size_t n, bool scalar,
+                              const std::string& where, const std::string& what) {
   if (scalar || (n != 2 && n != 3)) fail(where, what + ": needs a key of 2 or 3 numbers");
   if (!arg.IsMap()) fail(where, what + ": expected {radius: [r0, r1], ...}");
   for (auto it = arg.begin(); it != arg.end(); ++it) {
@@ -283,35 +275,153 @@ YAML::Node Dispersion::sample(std::uint64_t stream_seed, const YAML::Node& like)
       fail(where, what + ": unknown key '" + k + "' (radius, direction_deg, center, z, uniform_in)");
     }
   }
+  PolarDistribution d;
+  d.components = n;
   const auto [r0, r1] = bounds(child(arg, "radius"), 1, where, what + " radius");
   if (r0[0] < 0) fail(where, what + ": radius must be >= 0");
-  std::vector<double> d0{0.0}, d1{360.0};
+  d.radius_lo_m = r0[0];
+  d.radius_hi_m = r1[0];
   if (child(arg, "direction_deg").IsDefined()) {
-    std::tie(d0, d1) = bounds(child(arg, "direction_deg"), 1, where, what + " direction_deg");
+    const auto [d0, d1] = bounds(child(arg, "direction_deg"), 1, where, what + " direction_deg");
+    d.direction_lo_deg = d0[0];
+    d.direction_hi_deg = d1[0];
   }
-  std::vector<double> c{0.0, 0.0};
-  if (child(arg, "center").IsDefined()) c = numbers(child(arg, "center"), 2, where, what + " center");
+  if (child(arg, "center").IsDefined()) {
+    const std::vector<double> c = numbers(child(arg, "center"), 2, where, what + " center");
+    d.center_x = c[0];
+    d.center_y = c[1];
+  }
   std::string law = "radius";
   if (const YAML::Node l = child(arg, "uniform_in"); l.IsDefined()) law = l.as<std::string>();
   if (law != "radius" && law != "area") fail(where, what + ": uniform_in must be radius or area");
-  const double ur = rng.uniform(), ud = rng.uniform();
-  const double r = law == "area"
-                       ? std::sqrt(r0[0] * r0[0] + (r1[0] * r1[0] - r0[0] * r0[0]) * ur)
-                       : r0[0] + (r1[0] - r0[0]) * ur;
-  const double d = (d0[0] + (d1[0] - d0[0]) * ud) * M_PI / 180.0;
-  v[0] = c[0] + r * std::cos(d);
-  v[1] = c[1] + r * std::sin(d);
+  d.uniform_in_area = law == "area";
   if (n == 3) {
     const YAML::Node z = child(arg, "z");
     if (!z.IsDefined()) fail(where, what + ": a 3-vector key needs z: value or [z0, z1]");
     if (z.IsSequence()) {
       const auto [z0, z1] = bounds(z, 1, where, what + " z");
-      v[2] = z0[0] + (z1[0] - z0[0]) * rng.uniform();
+      d.z_drawn = true;
+      d.z_lo = z0[0];
+      d.z_hi = z1[0];
     } else {
-      v[2] = number(z, where, what + " z");
+      d.z_lo = number(z, where, what + " z");
     }
   }
+  return d;
+}
+
+// The draws. Each takes its generator's values in a fixed order (one uniform per component,
+// a normal per accepted or rejected component value, two or three uniforms for polar), so a
+// run's values depend only on its stream seed.
+
+YAML::Node draw(const ChoiceDistribution& d, Rng& rng, const Dispersion&) {
+  const double u = rng.uniform() * d.total_weight;
+  double acc = 0;
+  for (std::size_t i = 0; i < d.options.size(); ++i) {
+    acc += d.weights[i];
+    if (u < acc || i + 1 == d.options.size()) return YAML::Clone(d.options[i]);
+  }
+  return YAML::Clone(d.options.back());  // not reached: the last option is taken above
+}
+
+YAML::Node draw(const UniformDistribution& d, Rng& rng, const Dispersion& disp) {
+  std::vector<double> v(d.lo.size());
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    const double u = rng.uniform();
+    v[i] = d.lo[i] + (d.hi[i] - d.lo[i]) * u;
+  }
+  return to_node(v, disp.scalar);
+}
+
+YAML::Node draw(const LogUniformDistribution& d, Rng& rng, const Dispersion& disp) {
+  std::vector<double> v(d.lo.size());
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    const double u = rng.uniform();
+    v[i] = std::exp(std::log(d.lo[i]) + (std::log(d.hi[i]) - std::log(d.lo[i])) * u);
+  }
+  return to_node(v, disp.scalar);
+}
+
+YAML::Node draw(const IntegerDistribution& d, Rng& rng, const Dispersion& disp) {
+  std::vector<double> v(d.lo.size());
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    const double u = rng.uniform();
+    v[i] = std::min(d.hi[i], d.lo[i] + std::floor((d.hi[i] - d.lo[i] + 1) * u));
+  }
+  if (disp.scalar) return YAML::Node(static_cast<long long>(v[0]));
   return to_node(v, false);
+}
+
+// Truncated by rejection: at most 10000 draws per component.
+YAML::Node draw(const NormalDistribution& d, Rng& rng, const Dispersion& disp) {
+  std::vector<double> v(d.mean.size());
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    int tries = 0;
+    do {
+      if (++tries > 10000) {
+        fail(disp.where, fmt::format("'{}' normal: [min, max] = [{}, {}] is too improbable for "
+                                     "mean {} and std {} (10000 draws, none inside)",
+                                     disp.key, d.min[i], d.max[i], d.mean[i], d.std[i]));
+      }
+      v[i] = d.mean[i] + d.std[i] * rng.normal();
+    } while (v[i] < d.min[i] || v[i] > d.max[i]);
+  }
+  return to_node(v, disp.scalar);
+}
+
+YAML::Node draw(const PolarDistribution& d, Rng& rng, const Dispersion&) {
+  const double ur = rng.uniform(), ud = rng.uniform();
+  const double r0 = d.radius_lo_m, r1 = d.radius_hi_m;
+  const double r = d.uniform_in_area ? std::sqrt(r0 * r0 + (r1 * r1 - r0 * r0) * ur)
+                                     : r0 + (r1 - r0) * ur;
+  const double dir =
+      (d.direction_lo_deg + (d.direction_hi_deg - d.direction_lo_deg) * ud) * M_PI / 180.0;
+  std::vector<double> v(d.components);
+  v[0] = d.center_x + r * std::cos(dir);
+  v[1] = d.center_y + r * std::sin(dir);
+  if (d.components == 3) v[2] = d.z_drawn ? d.z_lo + (d.z_hi - d.z_lo) * rng.uniform() : d.z_lo;
+  return to_node(v, false);
+}
+
+}  // namespace
+
+// Distribution kinds (one per mapping; `min` / `max` truncate `normal`):
+//   uniform: [lo, hi] | [[lo...], [hi...]]       per component for a list key
+//   normal: {mean: m, std: s}, min: a, max: b    m, s, a, b numbers or lists; truncated by
+//                                                rejection (at most 10000 draws)
+//   loguniform: [lo, hi]                         0 < lo <= hi; uniform in log
+//   integer: [lo, hi]                            whole numbers, both ends included
+//   choice: [v1, v2, ...], weights: [w1, ...]    any YAML values; weights optional
+//   polar: {radius: [r0, r1], direction_deg: [d0, d1], center: [x, y], z: z | [z0, z1],
+//           uniform_in: radius | area}           a 2- or 3-vector at a random bearing
+//   constant: v
+Dispersion Dispersion::parse(const std::string& key, const std::string& where,
+                             const YAML::Node& spec, const YAML::Node& like) {
+  Dispersion d;
+  d.key = key;
+  d.where = where;
+  const std::string kind = distribution_kind(spec, key, where);
+  const std::string what = "'" + key + "' " + kind;
+  if (kind == "choice" || kind == "constant") {
+    d.distribution = parse_choice(spec, kind, like, where, what);
+    d.scalar = !like.IsSequence();
+    return d;
+  }
+  const std::size_t n = numeric_components(like, key, where, what);
+  d.scalar = like.IsScalar();
+  if (kind == "normal") {
+    d.distribution = parse_normal(spec, n, where, what);
+  } else if (kind == "polar") {
+    d.distribution = parse_polar(child(spec, kind), n, d.scalar, where, what);
+  } else {
+    d.distribution = parse_bounded(kind, child(spec, kind), n, where, what);
+  }
+  return d;
+}
+
+YAML::Node Dispersion::sample(std::uint64_t stream_seed) const {
+  Rng rng(stream_seed);
+  return std::visit([&](const auto& dist) { return draw(dist, rng, *this); }, distribution);
 }
 
 // 53 bits: the seed stays exact in every JSON reader (JavaScript's numbers are doubles).
@@ -329,20 +439,23 @@ std::vector<Dispersion> read_dispersions(const YAML::Node& node, const std::stri
   if (!node.IsDefined() || node.IsNull()) return out;
   if (!node.IsMap()) fail(yaml_where(node, file), "dispersions: expected a mapping key -> distribution");
   for (auto it = node.begin(); it != node.end(); ++it) {
-    Dispersion d;
-    d.key = it->first.as<std::string>();
-    d.where = yaml_where(it->first, file);
-    d.spec = it->second;
-    if (!d.spec.IsMap()) fail(d.where, "'" + d.key + "': expected a distribution mapping, e.g. {uniform: [0, 1]}");
-    if (d.key == "seed" || d.key == "name") fail(d.where, "'" + d.key + "' cannot be dispersed (the campaign sets it)");
-    const YAML::Node like = lookup(resolved_defaults, d.key);
-    if (!like.IsDefined()) fail(d.where, "unknown scenario key '" + d.key + "'");
-    if (like.IsMap()) fail(d.where, "'" + d.key + "' is a section, not a value: disperse its keys");
+    const std::string key = it->first.as<std::string>();
+    const std::string where = yaml_where(it->first, file);
+    const YAML::Node spec = it->second;
+    if (!spec.IsMap()) fail(where, "'" + key + "': expected a distribution mapping, e.g. {uniform: [0, 1]}");
+    if (key == "seed" || key == "name") fail(where, "'" + key + "' cannot be dispersed (the campaign sets it)");
+    const YAML::Node like = lookup(resolved_defaults, key);
+    if (!like.IsDefined()) fail(where, "unknown scenario key '" + key + "'");
+    if (like.IsMap()) fail(where, "'" + key + "' is a section, not a value: disperse its keys");
     for (const Dispersion& other : out) {
-      if (other.key == d.key) fail(d.where, "'" + d.key + "' dispersed twice (also at " + other.where + ")");
+      if (other.key == key) fail(where, "'" + key + "' dispersed twice (also at " + other.where + ")");
     }
-    d.sample(0, like);  // shape and parameters checked now, not at run i
-    out.push_back(d);
+    // Shape and parameters checked now, once, not at run i.
+    Dispersion d = Dispersion::parse(key, where, spec, like);
+    // A truncated normal whose [min, max] the rejection cannot reach fails now too: one trial
+    // draw (the other kinds cannot fail to draw).
+    if (std::holds_alternative<NormalDistribution>(d.distribution)) d.sample(0);
+    out.push_back(std::move(d));
   }
   return out;
 }
@@ -464,7 +577,6 @@ Campaign Campaign::load(const std::string& path) {
 std::vector<PlannedRun> make_plan(const Campaign& c) {
   std::vector<PlannedRun> plan;
   const sim::Scenario defaults_s = sim::Scenario::defaults();  // read models/vehicle.yaml once
-  const YAML::Node defaults = params_to_yaml(defaults_s);
   for (const ScenarioEntry& e : c.scenarios) {
     const YAML::Node file_node = load_yaml_file(e.file);
     // Entry dispersions replace campaign ones of the same key; in key order. (Sorted through
@@ -492,8 +604,7 @@ std::vector<PlannedRun> make_plan(const Campaign& c) {
       r.id = fmt::format("{}-{:0{}d}", e.id, i, width);
       r.seed = e.first_seed >= 0 ? static_cast<std::uint64_t>(e.first_seed + i) : run_seed(c.seed, e.id, i);
       for (const Dispersion* d : ds) {
-        r.sampled.emplace_back(
-            d->key, d->sample(sim::derive_seed(r.seed, "dispersion/" + d->key), lookup(defaults, d->key)));
+        r.sampled.emplace_back(d->key, d->sample(sim::derive_seed(r.seed, "dispersion/" + d->key)));
       }
       sim::Scenario s = defaults_s;
       try {

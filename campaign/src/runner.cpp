@@ -286,8 +286,10 @@ std::optional<std::string> hang_reason(double cpu_s, std::optional<double> recen
   return std::nullopt;
 }
 
-RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan,
-                          const RunnerOptions& o) {
+namespace {
+
+// The --only ids as a set, each checked against the plan; the shard and --jobs checked.
+std::set<std::string> check_options(const std::vector<PlannedRun>& plan, const RunnerOptions& o) {
   if (o.jobs < 1) throw ConfigError("--jobs must be >= 1");
   if (o.shard_count < 1 || o.shard_index < 0 || o.shard_index >= o.shard_count) {
     throw ConfigError(fmt::format("--shard {}/{}: K must be in [0, M)", o.shard_index, o.shard_count));
@@ -298,32 +300,35 @@ RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan
       throw ConfigError("--only: no run '" + id + "' in the campaign");
     }
   }
-  const std::string runs_dir = o.out_dir + "/runs";
-  fs::create_directories(runs_dir);
-  const std::string lander = o.lander_binary.empty() ? sim::self_executable() : o.lander_binary;
+  return only;
+}
 
-  // This invocation's runs, what is complete, and leftovers of interrupted runs.
+// A complete run to do again: with --retry-failed, one whose status was a simulator failure.
+bool redo_complete_run(const std::string& dir, const RunnerOptions& o) {
+  if (!o.retry_failed) return false;
+  try {
+    return read_run_record(dir).value("status", "ok") != "ok";
+  } catch (const std::exception&) {
+    return true;
+  }
+}
+
+// Select: this invocation's runs (its shard, --only) that are not complete; what is complete
+// counts as skipped. Run directories to redo and leftovers of interrupted runs of these runs
+// are removed.
+std::vector<const PlannedRun*> select_runs(const std::vector<PlannedRun>& plan, const RunnerOptions& o,
+                                           const std::set<std::string>& only,
+                                           const std::string& runs_dir, RunnerResult& res) {
   std::vector<const PlannedRun*> todo;
-  RunnerResult res;
   std::set<std::string> mine;
   for (const PlannedRun& r : plan) {
     if (r.plan_index % o.shard_count != o.shard_index) continue;
     if (!only.empty() && !only.count(r.id)) continue;
     mine.insert(r.id);
     const std::string dir = runs_dir + "/" + r.id;
-    if (fs::exists(dir + "/run.json")) {
-      bool redo = false;
-      if (o.retry_failed) {
-        try {
-          redo = read_run_record(dir).value("status", "ok") != "ok";
-        } catch (const std::exception&) {
-          redo = true;
-        }
-      }
-      if (!redo) {
-        ++res.skipped;
-        continue;
-      }
+    if (fs::exists(dir + "/run.json") && !redo_complete_run(dir, o)) {
+      ++res.skipped;
+      continue;
     }
     if (fs::exists(dir)) fs::remove_all(dir);  // a failed run to redo, or not ours
     todo.push_back(&r);
@@ -333,110 +338,178 @@ RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan
     const auto pos = name.find(".partial-");
     if (pos != std::string::npos && mine.count(name.substr(0, pos))) fs::remove_all(e.path());
   }
+  return todo;
+}
 
-  // Each worker gets its share of the cores for the renderer's and OpenCV's threads.
+// The run processes' environment: they die with the runner, and each worker gets its share
+// of the cores for the renderer's and OpenCV's threads.
+std::vector<std::string> worker_env(int jobs) {
   const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
-  const unsigned threads = std::max(1u, cores / static_cast<unsigned>(o.jobs));
-  const std::vector<std::string> env = {
-      "LANDER_DIE_WITH_PARENT=" + std::to_string(getpid()),
-      "LP_NUM_THREADS=" + std::to_string(threads),
-      "OPENCV_FOR_THREADS_NUM=" + std::to_string(threads), "OMP_NUM_THREADS=1"};
+  const unsigned threads = std::max(1u, cores / static_cast<unsigned>(jobs));
+  return {"LANDER_DIE_WITH_PARENT=" + std::to_string(getpid()),
+          "LP_NUM_THREADS=" + std::to_string(threads),
+          "OPENCV_FOR_THREADS_NUM=" + std::to_string(threads), "OMP_NUM_THREADS=1"};
+}
 
-  StopSignals signals;
-  const bool tty = isatty(STDERR_FILENO);
-  const auto t0 = std::chrono::steady_clock::now();
-  const int total = static_cast<int>(todo.size());
-  std::vector<Active> active;
-  std::size_t next = 0;
-  auto progress = [&](const std::string& line) {
+// The progress line on stderr: rewritten in place on a terminal, else one line per run.
+class Progress {
+ public:
+  Progress(const Campaign& c, const RunnerOptions& o, const RunnerResult& res, int total)
+      : c_(c), o_(o), res_(res), total_(total), tty_(isatty(STDERR_FILENO)),
+        t0_(std::chrono::steady_clock::now()) {
     if (!o.progress) return;
-    const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    const double rate = el > 0 ? res.completed / el * 60.0 : 0.0;
-    const double eta = res.completed > 0 ? (total - res.completed) / (res.completed / el) : NAN;
-    const std::string status = fmt::format(
-        "campaign {}: {}/{} runs done, {} simulator failures, {:.1f} runs/min, ETA {}", c.name,
-        res.completed, total, res.simulator_failures, rate, fmt_duration(eta));
-    if (tty) {
-      std::cerr << "\r\033[K" << (line.empty() ? "" : line + "\n") << status << std::flush;
-    } else if (!line.empty()) {
-      std::cerr << line << "  [" << status << "]\n";
-    }
-  };
-  if (o.progress) {
     std::cerr << fmt::format("campaign {}: {} runs to do in this shard ({} already complete), {} "
                              "workers\n",
                              c.name, total, res.skipped, o.jobs);
   }
-  while ((next < todo.size() || !active.empty())) {
+  ~Progress() {
+    if (o_.progress && tty_) std::cerr << "\n";
+  }
+  void operator()(const std::string& line) const {
+    if (!o_.progress) return;
+    const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+    const double rate = el > 0 ? res_.completed / el * 60.0 : 0.0;
+    const double eta = res_.completed > 0 ? (total_ - res_.completed) / (res_.completed / el) : NAN;
+    const std::string status = fmt::format(
+        "campaign {}: {}/{} runs done, {} simulator failures, {:.1f} runs/min, ETA {}", c_.name,
+        res_.completed, total_, res_.simulator_failures, rate, fmt_duration(eta));
+    if (tty_) {
+      std::cerr << "\r\033[K" << (line.empty() ? "" : line + "\n") << status << std::flush;
+    } else if (!line.empty()) {
+      std::cerr << line << "  [" << status << "]\n";
+    }
+  }
+
+ private:
+  const Campaign& c_;
+  const RunnerOptions& o_;
+  const RunnerResult& res_;
+  const int total_;
+  const bool tty_;
+  const std::chrono::steady_clock::time_point t0_;
+};
+
+// Spawn: a run's partial directory with its scenario, and its `lander run` process.
+Active spawn_run(const PlannedRun& r, const std::string& runs_dir, const std::string& lander,
+                 const std::vector<std::string>& env) {
+  Active a;
+  a.run = &r;
+  a.partial = runs_dir + "/" + r.id + ".partial-" + std::to_string(getpid());
+  fs::create_directories(a.partial);
+  sim::write_file_atomic(a.partial + "/scenario.input.yaml", run_scenario_yaml(r));
+  sim::SpawnOptions so;
+  so.stdout_path = a.partial + "/stdout.log";
+  so.stderr_path = a.partial + "/stderr.log";
+  so.own_process_group = true;
+  so.env = env;
+  a.start = std::chrono::steady_clock::now();
+  a.child = std::make_unique<sim::ChildProcess>(sim::ChildProcess::spawn(
+      {lander, "run", a.partial + "/scenario.input.yaml", "--out", a.partial, "--quiet"}, so));
+  return a;
+}
+
+// A run's wall-clock limit (s): --timeout-s, else the campaign's, else 120 s + 20 x duration.
+double run_limit_s(const Campaign& c, const RunnerOptions& o, const PlannedRun& r) {
+  return o.timeout_s > 0 ? o.timeout_s : c.run_timeout_s > 0 ? c.run_timeout_s : 120.0 + 20.0 * r.duration_s;
+}
+
+// The run's exit status once it has ended, or once it is hung (then killed); nullopt while
+// it runs.
+std::optional<sim::ExitStatus> poll_run(Active& a, double limit_s, double wall_s) {
+  std::optional<sim::ExitStatus> st = a.child->poll();
+  if (st || !is_hung(a, limit_s, wall_s)) return st;
+  a.timed_out = true;
+  st = a.child->kill_and_reap();
+  if (!st) {
+    // Not ended after SIGKILL (stuck in the kernel, e.g. dumping core to a stalled
+    // handler): recorded, and left to init to reap when we exit.
+    a.hang_detail += fmt::format("; still not ended {:.0f} s after SIGKILL, left behind",
+                                 sim::ChildProcess::kKillWait_s);
+    st = sim::ExitStatus{};
+  }
+  return st;
+}
+
+// Complete a run: its record into run.json, the partial directory renamed into place; the
+// progress line.
+void complete_run(const Active& a, const sim::ExitStatus& st, double wall_s,
+                         const std::string& runs_dir, const Progress& progress, RunnerResult& res) {
+  const json rec = finish_record(a, st, wall_s);
+  sim::write_json_file(a.partial + "/run.json", rec);
+  std::error_code ec;
+  fs::rename(a.partial, runs_dir + "/" + a.run->id, ec);
+  if (ec) {
+    // Another worker (an overlapping shard) finished it first: keep theirs.
+    fs::remove_all(a.partial);
+  }
+  ++res.completed;
+  const std::string status = rec["status"].get<std::string>();
+  if (status != "ok") ++res.simulator_failures;
+  std::string line = fmt::format("  {} {}", a.run->id, rec["outcome"].get<std::string>());
+  if (status != "ok") line += " (simulator failure: " + rec["detail"].get<std::string>() + ")";
+  progress(line);
+}
+
+// Reap: every run that has ended (or was found hung) is completed and leaves the pool.
+// Returns whether any did.
+bool reap_runs(std::vector<Active>& active, const Campaign& c, const RunnerOptions& o,
+               const std::string& runs_dir, const Progress& progress, RunnerResult& res) {
+  bool any = false;
+  for (auto it = active.begin(); it != active.end();) {
+    const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - it->start).count();
+    const std::optional<sim::ExitStatus> st = poll_run(*it, run_limit_s(c, o, *it->run), el);
+    if (!st) {
+      ++it;
+      continue;
+    }
+    any = true;
+    complete_run(*it, *st, el, runs_dir, progress, res);
+    it = active.erase(it);
+  }
+  return any;
+}
+
+// Interrupted: the runs in flight are killed and their partial directories removed.
+void stop_runs(std::vector<Active>& active) {
+  for (Active& a : active) {
+    a.child->kill_and_reap();
+    fs::remove_all(a.partial);
+  }
+  active.clear();
+}
+
+}  // namespace
+
+RunnerResult run_campaign(const Campaign& c, const std::vector<PlannedRun>& plan,
+                          const RunnerOptions& o) {
+  const std::set<std::string> only = check_options(plan, o);
+  const std::string runs_dir = o.out_dir + "/runs";
+  fs::create_directories(runs_dir);
+  RunnerResult res;
+  // This invocation's runs, what is complete, and leftovers of interrupted runs.
+  const std::vector<const PlannedRun*> todo = select_runs(plan, o, only, runs_dir, res);
+  const std::string lander = o.lander_binary.empty() ? sim::self_executable() : o.lander_binary;
+  const std::vector<std::string> env = worker_env(o.jobs);
+  StopSignals signals;
+  const Progress progress(c, o, res, static_cast<int>(todo.size()));
+  std::vector<Active> active;
+  std::size_t next = 0;
+  // The pool: spawn up to --jobs runs, reap the ended ones, until all are done or a signal
+  // stops it.
+  while (next < todo.size() || !active.empty()) {
     if (g_stop) {
-      for (Active& a : active) {
-        a.child->kill_and_reap();
-        fs::remove_all(a.partial);
-      }
+      stop_runs(active);
       res.interrupted = true;
       break;
     }
     while (active.size() < static_cast<std::size_t>(o.jobs) && next < todo.size()) {
-      const PlannedRun* r = todo[next++];
-      Active a;
-      a.run = r;
-      a.partial = runs_dir + "/" + r->id + ".partial-" + std::to_string(getpid());
-      fs::create_directories(a.partial);
-      sim::write_file_atomic(a.partial + "/scenario.input.yaml", run_scenario_yaml(*r));
-      sim::SpawnOptions so;
-      so.stdout_path = a.partial + "/stdout.log";
-      so.stderr_path = a.partial + "/stderr.log";
-      so.own_process_group = true;
-      so.env = env;
-      a.start = std::chrono::steady_clock::now();
-      a.child = std::make_unique<sim::ChildProcess>(sim::ChildProcess::spawn(
-          {lander, "run", a.partial + "/scenario.input.yaml", "--out", a.partial, "--quiet"}, so));
+      active.push_back(spawn_run(*todo[next++], runs_dir, lander, env));
       ++res.started;
-      active.push_back(std::move(a));
     }
-    bool any = false;
-    for (auto it = active.begin(); it != active.end();) {
-      const double limit = o.timeout_s > 0 ? o.timeout_s
-                           : c.run_timeout_s > 0 ? c.run_timeout_s
-                                                 : 120.0 + 20.0 * it->run->duration_s;
-      const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - it->start).count();
-      std::optional<sim::ExitStatus> st = it->child->poll();
-      if (!st && is_hung(*it, limit, el)) {
-        it->timed_out = true;
-        st = it->child->kill_and_reap();
-        if (!st) {
-          // Not ended after SIGKILL (stuck in the kernel, e.g. dumping core to a stalled
-          // handler): recorded, and left to init to reap when we exit.
-          it->hang_detail += fmt::format("; still not ended {:.0f} s after SIGKILL, left behind",
-                                         sim::ChildProcess::kKillWait_s);
-          st = sim::ExitStatus{};
-        }
-      }
-      if (!st) {
-        ++it;
-        continue;
-      }
-      any = true;
-      const json rec = finish_record(*it, *st, el);
-      sim::write_json_file(it->partial + "/run.json", rec);
-      const std::string dir = runs_dir + "/" + it->run->id;
-      std::error_code ec;
-      fs::rename(it->partial, dir, ec);
-      if (ec) {
-        // Another worker (an overlapping shard) finished it first: keep theirs.
-        fs::remove_all(it->partial);
-      }
-      ++res.completed;
-      const std::string status = rec["status"].get<std::string>();
-      if (status != "ok") ++res.simulator_failures;
-      std::string line = fmt::format("  {} {}", it->run->id, rec["outcome"].get<std::string>());
-      if (status != "ok") line += " (simulator failure: " + rec["detail"].get<std::string>() + ")";
-      progress(line);
-      it = active.erase(it);
+    if (!reap_runs(active, c, o, runs_dir, progress, res)) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
     }
-    if (!any) std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
-  if (o.progress && tty) std::cerr << "\n";
   return res;
 }
 

@@ -21,6 +21,7 @@
 #include "lander/campaign/campaign.h"
 #include "lander/campaign/merge.h"
 #include "lander/campaign/runner.h"
+#include "lander/campaign/runner_lock.h"
 #include "lander/campaign/slurm.h"
 
 namespace lander::cli {
@@ -129,6 +130,10 @@ int cmd_run(const Args& rest) {
     if (!fs::is_regular_file(c.flight_plugin)) throw ConfigError("--flight-plugin: no such file: " + c.flight_plugin);
   }
   const auto plan = campaign::make_plan(c);
+  // One runner per directory and shard: a second one stops here, before it writes anything
+  // (campaign/runner_lock.h). Held until this command returns.
+  const campaign::RunnerLock lock = campaign::RunnerLock::acquire(o);
+  if (!lock.note().empty()) std::cerr << "lander campaign: " << lock.note() << "\n";
   campaign::write_plan(c, plan, o.out_dir);
   const campaign::RunnerResult r = campaign::run_campaign(c, plan, o);
   if (r.interrupted) {

@@ -302,183 +302,271 @@ def sample_cut_pose(rng, i, n, seed):
 
 
 # ------------------------------------------------------------------ one image
-def make_image(cond, i, n, seed):
-    """Returns (uint8 HxWx3 image, file extension, truth dict)."""
-    rng = np.random.default_rng([seed, CONDITIONS.index(cond), i])
-    s = sev(i, n)
-    far = cond.startswith("far_")
-    if far:
-        sc = shared_scene(seed + 900, i, n, rmin=10.0, rmax=15.0)
-        cond = cond[4:]          # same image effects as the base condition
-    elif cond == "negatives":
-        sc = shared_scene(seed + 500, i, n)
-    elif cond == "edge_cut":
-        sc = shared_scene(seed, i % 20, 20)
+class Shot:
+    """One image while it is made: its pose, parameters, render options and the effects still
+    to apply. Every step draws from `rng` in the order make_image calls them, so an image stays
+    a pure function of (seed, condition, index)."""
+
+    def __init__(self, cond, i, n, seed):
+        self.rng = np.random.default_rng([seed, CONDITIONS.index(cond), i])
+        self.i, self.n, self.seed = i, n, seed
+        self.s = sev(i, n)
+        self.far = cond.startswith("far_")
+        if self.far:
+            sc = shared_scene(seed + 900, i, n, rmin=10.0, rmax=15.0)
+            cond = cond[4:]          # same image effects as the base condition
+        elif cond == "negatives":
+            sc = shared_scene(seed + 500, i, n)
+        elif cond == "edge_cut":
+            sc = shared_scene(seed, i % 20, 20)
+        else:
+            sc = shared_scene(seed, i, n)
+        self.cond = cond
+        self.R, self.p = sc["R"], sc["p"]
+        self.params = dict(range_m=sc["range"], view_deg=sc["view"], ground=sc["ground"],
+                           exposure=sc["exposure"], centre_px=list(sc["centre_px"]))
+        self.rkw = dict(ground=sc["ground"])
+        self.exposure = sc["exposure"]
+        self.ext = "png"
+        self.target_present = True
+        self.post = []   # DN-domain operations
+
+
+def scene_edge_cut(sh):
+    """Condition 7: a pose with the centre ring near an image edge."""
+    sh.R, sh.p, info = sample_cut_pose(sh.rng, sh.i, sh.n, sh.seed)
+    sh.params.update(range_m=info["range"], view_deg=info["view"],
+                     centre_px=list(info["centre_px"]), sets_out=info["sets_out"])
+
+
+def negative_square_shapes(sh, dec, sub):
+    """Negatives on a white square: discs or ring-set copies in a grid, a line or at random."""
+    rng, i = sh.rng, sh.i
+    shapes = []
+    dec.square(0.0, 0.0, pr.PLATFORM / 2, pr.ALB_WHITE, angle=0.0)
+    layout = ["grid", "line", "random"][int(rng.integers(3))] if sub == "square_discs" \
+        else ["grid", "line", "random"][(i // 5) % 3]
+    sh.params["layout"] = layout
+    if layout == "grid":
+        pts = [(x, y) for x in (-0.55, 0.0, 0.55) for y in (-0.55, 0.0, 0.55)]
+    elif layout == "line":
+        pts = [(x, y) for x in (-0.66, -0.22, 0.22, 0.66) for y in (-0.45, 0.45)]
     else:
-        sc = shared_scene(seed, i, n)
-    R, p = sc["R"], sc["p"]
-    params = dict(range_m=sc["range"], view_deg=sc["view"], ground=sc["ground"],
-                  exposure=sc["exposure"], centre_px=list(sc["centre_px"]))
-    rkw = dict(ground=sc["ground"])
-    exposure = sc["exposure"]
-    ext = "png"
-    target_present = True
-    post = []   # DN-domain operations
+        pts = []
+        while len(pts) < 7:
+            x, y = rng.uniform(-0.65, 0.65, 2)
+            if all(math.hypot(x - a, y - b) > 0.45 for a, b in pts):
+                pts.append((x, y))
+    pts = pts[:7] if sub == "square_ringsets" else pts
+    for k, (x, y) in enumerate(pts):
+        if sub == "square_discs":
+            dec.annulus(x, y, rng.uniform(0.1, 0.22), 0.0, pr.ALB_BLACK)
+            shapes.append(dict(kind="disc", x=x, y=y))
+        else:
+            rs = pr.RINGS[k % 7]
+            rr = 0.2 if rs[0] == 0 else rs[3]
+            ri = rs[4] * (0.2 / rs[3]) if rs[0] == 0 else rs[4]
+            dec.annulus(x, y, rr, ri, pr.ALB_BLACK)
+            shapes.append(dict(kind="ringset_ratio_copy", x=x, y=y, R=rr, r=ri,
+                               copy_of=rs[0]))
+    return shapes
 
-    if cond == "edge_cut":
-        R, p, info = sample_cut_pose(rng, i, n, seed)
-        params.update(range_m=info["range"], view_deg=info["view"],
-                      centre_px=list(info["centre_px"]), sets_out=info["sets_out"])
-    elif cond == "negatives":
-        target_present = False
-        sub = ["ground_only", "scattered_rings", "concentric", "square_discs",
-               "square_ringsets"][i % 5]
-        params["subclass"] = sub
-        rkw["platform"] = False
-        dec = decal_ground()
-        shapes = []
-        if sub == "scattered_rings":
-            for _ in range(int(rng.integers(4, 11))):
-                d = rng.uniform(0, 3.0); a = rng.uniform(0, 2 * math.pi)
-                kind = ["annulus", "disc", "ringset_copy"][int(rng.integers(3))]
-                shapes.append(add_decoy_shape(dec, rng, d * math.cos(a), d * math.sin(a), kind,
-                                              rng.uniform(0.08, 0.4), rng.uniform(0.02, 0.08)))
-        elif sub == "concentric":
-            for k in range(int(rng.integers(1, 3))):
-                x, y = (0.0, 0.0) if k == 0 else tuple(rng.uniform(-2.5, 2.5, 2))
-                shapes.append(add_decoy_shape(dec, rng, x, y, "concentric",
-                                              rng.uniform(0.3, 0.8), rng.uniform(0.02, 0.06)))
-        elif sub in ("square_discs", "square_ringsets"):
-            dec.square(0.0, 0.0, pr.PLATFORM / 2, pr.ALB_WHITE, angle=0.0)
-            layout = ["grid", "line", "random"][int(rng.integers(3))] if sub == "square_discs" \
-                else ["grid", "line", "random"][(i // 5) % 3]
-            params["layout"] = layout
-            if layout == "grid":
-                pts = [(x, y) for x in (-0.55, 0.0, 0.55) for y in (-0.55, 0.0, 0.55)]
-            elif layout == "line":
-                pts = [(x, y) for x in (-0.66, -0.22, 0.22, 0.66) for y in (-0.45, 0.45)]
-            else:
-                pts = []
-                while len(pts) < 7:
-                    x, y = rng.uniform(-0.65, 0.65, 2)
-                    if all(math.hypot(x - a, y - b) > 0.45 for a, b in pts):
-                        pts.append((x, y))
-            pts = pts[:7] if sub == "square_ringsets" else pts
-            for k, (x, y) in enumerate(pts):
-                if sub == "square_discs":
-                    dec.annulus(x, y, rng.uniform(0.1, 0.22), 0.0, pr.ALB_BLACK)
-                    shapes.append(dict(kind="disc", x=x, y=y))
-                else:
-                    rs = pr.RINGS[k % 7]
-                    rr = 0.2 if rs[0] == 0 else rs[3]
-                    ri = rs[4] * (0.2 / rs[3]) if rs[0] == 0 else rs[4]
-                    dec.annulus(x, y, rr, ri, pr.ALB_BLACK)
-                    shapes.append(dict(kind="ringset_ratio_copy", x=x, y=y, R=rr, r=ri,
-                                       copy_of=rs[0]))
-        params["shapes"] = shapes
-        rkw["decals"] = [dec]
-    elif cond == "decoys":
-        dec = decal_ground()
-        nshape = int(round(lerp(2, 8, s)))
-        shapes, avoid = [], []
-        for _ in range(nshape):
-            kind = ["annulus", "disc", "concentric", "ringset_copy"][int(rng.integers(4))]
-            r_out = rng.uniform(0.1, 0.45) if kind != "ringset_copy" else 0.2
-            xy = place_in_view(rng, R, p, r_out, 1.0, 3.0, avoid=avoid)
-            if xy is None:
-                continue
-            avoid.append((xy[0], xy[1], r_out))
-            shapes.append(add_decoy_shape(dec, rng, xy[0], xy[1], kind, r_out,
-                                          rng.uniform(0.02, 0.08)))
-        params["shapes"] = shapes
-        params["n_decoys_in_view"] = len(shapes)
-        rkw["decals"] = [dec]
-    elif cond == "worn":
-        cov = lerp(0.05, 0.15, s)
-        dirt, info = worn_dirt(rng, cov)
-        rkw["dirt"] = dirt
-        params["worn"] = info
-    elif cond == "rolling_shutter":
-        amp = lerp(10, 40, s) * (1 if rng.uniform() < 0.5 else -1)
-        mode = ["horizontal", "vertical", "both"][i % 3]
-        uv, _ = pr.project(R, p, np.zeros((1, 3)))
-        vref = float(uv[0, 1])
-        rows = np.arange(pr.H, dtype=np.float64)
-        xs = amp * (rows - vref) / pr.H if mode in ("horizontal", "both") else None
-        amp2 = lerp(10, 40, s) * (1 if rng.uniform() < 0.5 else -1)
-        ys = amp2 * (rows - vref) / pr.H if mode in ("vertical", "both") else None
-        rkw["xshift"], rkw["yshift"] = xs, ys
-        params.update(rs_mode=mode, rs_x_px_over_frame=amp if xs is not None else 0.0,
-                      rs_y_px_over_frame=amp2 if ys is not None else 0.0, rs_ref_row=vref)
-        Re, pe, rms = rs_equivalent_pose(R, p, params["rs_x_px_over_frame"],
-                                         params["rs_y_px_over_frame"], vref)
-        params.update(rs_equiv_R_CP=Re.tolist(), rs_equiv_p_CP_m=pe.tolist(),
-                      rs_equiv_fit_rms_px=rms,
-                      rs_equiv_vs_truth_pos_pct=float(100 * np.linalg.norm(pe - p) / np.linalg.norm(p)),
-                      rs_equiv_vs_truth_rot_deg=rot_err_deg(R, Re))
 
-    L = pr.render(R, p, **rkw)
+def scene_negatives(sh):
+    """No platform: the ground alone, or ring-like shapes that are not the target."""
+    rng, i = sh.rng, sh.i
+    sh.target_present = False
+    sub = ["ground_only", "scattered_rings", "concentric", "square_discs",
+           "square_ringsets"][i % 5]
+    sh.params["subclass"] = sub
+    sh.rkw["platform"] = False
+    dec = decal_ground()
+    shapes = []
+    if sub == "scattered_rings":
+        for _ in range(int(rng.integers(4, 11))):
+            d = rng.uniform(0, 3.0); a = rng.uniform(0, 2 * math.pi)
+            kind = ["annulus", "disc", "ringset_copy"][int(rng.integers(3))]
+            shapes.append(add_decoy_shape(dec, rng, d * math.cos(a), d * math.sin(a), kind,
+                                          rng.uniform(0.08, 0.4), rng.uniform(0.02, 0.08)))
+    elif sub == "concentric":
+        for k in range(int(rng.integers(1, 3))):
+            x, y = (0.0, 0.0) if k == 0 else tuple(rng.uniform(-2.5, 2.5, 2))
+            shapes.append(add_decoy_shape(dec, rng, x, y, "concentric",
+                                          rng.uniform(0.3, 0.8), rng.uniform(0.02, 0.06)))
+    elif sub in ("square_discs", "square_ringsets"):
+        shapes = negative_square_shapes(sh, dec, sub)
+    sh.params["shapes"] = shapes
+    sh.rkw["decals"] = [dec]
 
-    # ---------------- linear-domain (optical) effects
+
+def scene_decoys(sh):
+    """Ring-like shapes on the ground around the platform, more with severity."""
+    rng = sh.rng
+    dec = decal_ground()
+    nshape = int(round(lerp(2, 8, sh.s)))
+    shapes, avoid = [], []
+    for _ in range(nshape):
+        kind = ["annulus", "disc", "concentric", "ringset_copy"][int(rng.integers(4))]
+        r_out = rng.uniform(0.1, 0.45) if kind != "ringset_copy" else 0.2
+        xy = place_in_view(rng, sh.R, sh.p, r_out, 1.0, 3.0, avoid=avoid)
+        if xy is None:
+            continue
+        avoid.append((xy[0], xy[1], r_out))
+        shapes.append(add_decoy_shape(dec, rng, xy[0], xy[1], kind, r_out,
+                                      rng.uniform(0.02, 0.08)))
+    sh.params["shapes"] = shapes
+    sh.params["n_decoys_in_view"] = len(shapes)
+    sh.rkw["decals"] = [dec]
+
+
+def scene_worn(sh):
+    """Dirt, blotches and scratches on the target."""
+    cov = lerp(0.05, 0.15, sh.s)
+    dirt, info = worn_dirt(sh.rng, cov)
+    sh.rkw["dirt"] = dirt
+    sh.params["worn"] = info
+
+
+def scene_rolling_shutter(sh):
+    """Row-dependent image shifts, with the rigid pose that explains them best."""
+    rng, R, p, s = sh.rng, sh.R, sh.p, sh.s
+    params = sh.params
+    amp = lerp(10, 40, s) * (1 if rng.uniform() < 0.5 else -1)
+    mode = ["horizontal", "vertical", "both"][sh.i % 3]
+    uv, _ = pr.project(R, p, np.zeros((1, 3)))
+    vref = float(uv[0, 1])
+    rows = np.arange(pr.H, dtype=np.float64)
+    xs = amp * (rows - vref) / pr.H if mode in ("horizontal", "both") else None
+    amp2 = lerp(10, 40, s) * (1 if rng.uniform() < 0.5 else -1)
+    ys = amp2 * (rows - vref) / pr.H if mode in ("vertical", "both") else None
+    sh.rkw["xshift"], sh.rkw["yshift"] = xs, ys
+    params.update(rs_mode=mode, rs_x_px_over_frame=amp if xs is not None else 0.0,
+                  rs_y_px_over_frame=amp2 if ys is not None else 0.0, rs_ref_row=vref)
+    Re, pe, rms = rs_equivalent_pose(R, p, params["rs_x_px_over_frame"],
+                                     params["rs_y_px_over_frame"], vref)
+    params.update(rs_equiv_R_CP=Re.tolist(), rs_equiv_p_CP_m=pe.tolist(),
+                  rs_equiv_fit_rms_px=rms,
+                  rs_equiv_vs_truth_pos_pct=float(100 * np.linalg.norm(pe - p) / np.linalg.norm(p)),
+                  rs_equiv_vs_truth_rot_deg=rot_err_deg(R, Re))
+
+
+SCENE_STEPS = dict(edge_cut=scene_edge_cut, negatives=scene_negatives, decoys=scene_decoys,
+                   worn=scene_worn, rolling_shutter=scene_rolling_shutter)
+
+
+def add_glare(sh, L):
+    """A saturating glare blob on the target, sized so that the wanted fraction of it clips."""
+    rng, R, p = sh.rng, sh.R, sh.p
+    x, y, valid, onp, ring = pr.pixel_geometry(R, p)
+    frac = lerp(0.2, 0.4, sh.s)
+    vv, uu = np.nonzero(onp)
+    k = int(rng.integers(len(uu)))
+    bu, bv = uu[k], vv[k]
+    dist = np.hypot(uu - bu, vv - bv)
+    yy, xx = np.mgrid[0:pr.H, 0:pr.W]
+    d = np.hypot(xx - bu, yy - bv)
+
+    def glare_blob(Rb):
+        soft = max(2.0, Rb / 8)
+        return (2.0 / (1 + np.exp(np.clip((d - Rb) / soft, -50, 50))) +
+                0.08 * np.exp(-(d / (2.5 * Rb)) ** 2)).astype(np.float32)
+
+    # bisection on the blob radius so that the saturated part of the target's image
+    # (all channels >= full scale before noise) is the wanted fraction
+    lo, hi = 1.0, float(dist.max()) * 1.2
+    for _it in range(16):
+        Rb = 0.5 * (lo + hi)
+        satf = ((((L + glare_blob(Rb)[..., None]) * sh.exposure).min(axis=2) >= 1.0) & onp).sum() \
+            / max(1, onp.sum())
+        if satf < frac:
+            lo = Rb
+        else:
+            hi = Rb
+    blob = glare_blob(Rb)
+    L = L + blob[..., None].astype(np.float32)
+    sh.params.update(glare_centre_px=[int(bu), int(bv)], glare_radius_px=Rb,
+                     glare_target_frac=frac)
+    sh.post.append(("glare_measure", onp))
+    return L
+
+
+def optical_effects(sh, L):
+    """Linear-domain (optical) effects on the rendered radiance L."""
+    cond, rng, s = sh.cond, sh.rng, sh.s
     if cond == "glare":
-        x, y, valid, onp, ring = pr.pixel_geometry(R, p)
-        frac = lerp(0.2, 0.4, s)
-        vv, uu = np.nonzero(onp)
-        k = int(rng.integers(len(uu)))
-        bu, bv = uu[k], vv[k]
-        dist = np.hypot(uu - bu, vv - bv)
-        yy, xx = np.mgrid[0:pr.H, 0:pr.W]
-        d = np.hypot(xx - bu, yy - bv)
-
-        def glare_blob(Rb):
-            soft = max(2.0, Rb / 8)
-            return (2.0 / (1 + np.exp(np.clip((d - Rb) / soft, -50, 50))) +
-                    0.08 * np.exp(-(d / (2.5 * Rb)) ** 2)).astype(np.float32)
-
-        # bisection on the blob radius so that the saturated part of the target's image
-        # (all channels >= full scale before noise) is the wanted fraction
-        lo, hi = 1.0, float(dist.max()) * 1.2
-        for _it in range(16):
-            Rb = 0.5 * (lo + hi)
-            satf = ((((L + glare_blob(Rb)[..., None]) * exposure).min(axis=2) >= 1.0) & onp).sum() \
-                / max(1, onp.sum())
-            if satf < frac:
-                lo = Rb
-            else:
-                hi = Rb
-        blob = glare_blob(Rb)
-        L = L + blob[..., None].astype(np.float32)
-        params.update(glare_centre_px=[int(bu), int(bv)], glare_radius_px=Rb,
-                      glare_target_frac=frac)
-        post.append(("glare_measure", onp))
+        L = add_glare(sh, L)
     if cond == "defocus":
         rad = lerp(2, 5, s)
         ker = disc_kernel(rad).astype(np.float32)
         L = np.stack([signal.fftconvolve(L[..., c], ker, mode="same") for c in range(3)], -1)
-        params["defocus_radius_px"] = rad
+        sh.params["defocus_radius_px"] = rad
     if cond == "uneven_light":
         m = lerp(0.40, 0.25, s)
         ang = rng.uniform(0, 2 * math.pi)
-        x, y, valid, onp, ring = pr.pixel_geometry(R, p)
+        x, y, valid, onp, ring = pr.pixel_geometry(sh.R, sh.p)
         sd = x * math.cos(ang) + y * math.sin(ang)
         e = 0.86
         fac = 1 - (1 - m) * np.clip((sd + e) / (2 * e), 0, 1)
         fac = np.where(valid, fac, 1.0) ** 2.2          # brightness (DN) ratio m
         L = L * fac[..., None].astype(np.float32)
-        params.update(ramp_min_brightness=m, ramp_dir_deg=math.degrees(ang))
+        sh.params.update(ramp_min_brightness=m, ramp_dir_deg=math.degrees(ang))
     if cond == "colour_gamma":
         k = lerp(1.1, 1.3, s)
-        warm = (i % 2 == 0)
+        warm = (sh.i % 2 == 0)
         g = np.array([k, 1.0, 2 - k] if warm else [2 - k, 1.0, k], np.float32)
         L = L * g
-        perm = np.random.default_rng([seed, 77]).permutation(n)
-        gam = float(np.exp(np.linspace(math.log(0.5), math.log(2.2), n))[perm[i]])
-        post.append(("gamma", gam))
-        params.update(wb_gains_rgb=g.tolist(), gamma=gam)
+        perm = np.random.default_rng([sh.seed, 77]).permutation(sh.n)
+        gam = float(np.exp(np.linspace(math.log(0.5), math.log(2.2), sh.n))[perm[sh.i]])
+        sh.post.append(("gamma", gam))
+        sh.params.update(wb_gains_rgb=g.tolist(), gamma=gam)
+    return L
 
-    dn = pr.response(L, exposure)
 
-    # ---------------- DN-domain effects
+def add_occlusion(sh, dn):
+    """One or two bars across the rings, covering 5-25 % of them."""
+    rng, s = sh.rng, sh.s
+    x, y, valid, onp, ring = pr.pixel_geometry(sh.R, sh.p)
+    vv, uu = np.nonzero(ring)
+    uc, _ = pr.project(sh.R, sh.p, np.zeros((1, 3)))
+    nb = 1 if sh.i % 2 == 0 else 2
+    want = lerp(0.05, 0.25, s)
+    best = None
+    for _t in range(1500):
+        bars = []
+        for _b in range(nb):
+            w = rng.uniform(0.03, 0.10) * pr.W
+            ang = rng.uniform(0, math.pi)
+            k = int(rng.integers(len(uu)))
+            off = rng.uniform(-w / 2 - 10, w / 2 + 10)   # may clip the target's side
+            bars.append((float(uu[k] - off * math.sin(ang)), float(vv[k] + off * math.cos(ang)),
+                         ang, w))
+        c = bar_coverage(ring, uu.astype(float), vv.astype(float), bars)
+        if 0.05 <= c <= 0.25 and (best is None or abs(c - want) < abs(best[1] - want)):
+            best = (bars, c)
+            if abs(c - want) < 0.01:
+                break
+    if best is None:
+        raise RuntimeError("occlusion: no bar placement covering 5-25 % of the rings")
+    bars, c = best
+    yy, xx = np.mgrid[0:pr.H, 0:pr.W].astype(np.float32)
+    cols = [(25, 25, 28), (200, 60, 30), (230, 200, 40), (60, 60, 70), (15, 15, 15)]
+    descr = []
+    for (px, py, ang, w) in bars:
+        col = np.array(cols[int(rng.integers(len(cols)))], np.float32)
+        d = (xx - px) * (-math.sin(ang)) + (yy - py) * math.cos(ang)
+        soft = rng.uniform(0.7, 2.5)
+        a = np.clip((w / 2 - np.abs(d)) / soft + 0.5, 0, 1)[..., None]
+        shade = 1.0 + 0.15 * np.clip(d / (w / 2), -1, 1)[..., None]   # rounded look
+        dn = dn * (1 - a) + a * col * shade
+        descr.append(dict(point_px=[px, py], angle_deg=math.degrees(ang), width_px=w,
+                          colour=col.tolist()))
+    sh.params.update(bars=descr, ring_coverage=c)
+    return dn
+
+
+def dn_effects(sh, dn):
+    """DN-domain effects (gain, haze, gamma, occluding bars). Returns (dn, read noise sigma)."""
+    cond, rng, s, params = sh.cond, sh.rng, sh.s, sh.params
     noise_sigma = 1.0
     if cond == "overexposure":
         gain = lerp(1.5, 3.0, s)
@@ -494,55 +582,26 @@ def make_image(cond, i, n, seed):
         h = rng.uniform(120, 230)
         dn = a * dn + (1 - a) * h
         params.update(contrast=a, haze_dn=h)
-    for op in post:
+    for op in sh.post:
         if op[0] == "gamma":
             dn = 255.0 * np.clip(dn / 255.0, 0, 1) ** op[1]
     if cond == "occlusion":
-        x, y, valid, onp, ring = pr.pixel_geometry(R, p)
-        vv, uu = np.nonzero(ring)
-        uc, _ = pr.project(R, p, np.zeros((1, 3)))
-        nb = 1 if i % 2 == 0 else 2
-        want = lerp(0.05, 0.25, s)
-        best = None
-        for _t in range(1500):
-            bars = []
-            for _b in range(nb):
-                w = rng.uniform(0.03, 0.10) * pr.W
-                ang = rng.uniform(0, math.pi)
-                k = int(rng.integers(len(uu)))
-                off = rng.uniform(-w / 2 - 10, w / 2 + 10)   # may clip the target's side
-                bars.append((float(uu[k] - off * math.sin(ang)), float(vv[k] + off * math.cos(ang)),
-                             ang, w))
-            c = bar_coverage(ring, uu.astype(float), vv.astype(float), bars)
-            if 0.05 <= c <= 0.25 and (best is None or abs(c - want) < abs(best[1] - want)):
-                best = (bars, c)
-                if abs(c - want) < 0.01:
-                    break
-        if best is None:
-            raise RuntimeError("occlusion: no bar placement covering 5-25 % of the rings")
-        bars, c = best
-        yy, xx = np.mgrid[0:pr.H, 0:pr.W].astype(np.float32)
-        cols = [(25, 25, 28), (200, 60, 30), (230, 200, 40), (60, 60, 70), (15, 15, 15)]
-        descr = []
-        for (px, py, ang, w) in bars:
-            col = np.array(cols[int(rng.integers(len(cols)))], np.float32)
-            d = (xx - px) * (-math.sin(ang)) + (yy - py) * math.cos(ang)
-            soft = rng.uniform(0.7, 2.5)
-            a = np.clip((w / 2 - np.abs(d)) / soft + 0.5, 0, 1)[..., None]
-            shade = 1.0 + 0.15 * np.clip(d / (w / 2), -1, 1)[..., None]   # rounded look
-            dn = dn * (1 - a) + a * col * shade
-            descr.append(dict(point_px=[px, py], angle_deg=math.degrees(ang), width_px=w,
-                              colour=col.tolist()))
-        params.update(bars=descr, ring_coverage=c)
+        dn = add_occlusion(sh, dn)
+    return dn, noise_sigma
 
-    for op in post:
+
+def sensor_output(sh, dn, noise_sigma):
+    """The 8-bit image: glare's clipped share measured, read noise (and salt and pepper for
+    the noise condition), quantisation; the JPEG quality of the jpeg condition."""
+    rng, params = sh.rng, sh.params
+    for op in sh.post:
         if op[0] == "glare_measure":   # saturated (all channels at full scale, before noise)
             onp = op[1]
             sat = (dn.min(axis=2) >= 254.5) & onp
             params["glare_saturated_frac_of_target"] = float(sat.sum() / max(1, onp.sum()))
     dn = add_noise(dn, rng, noise_sigma)
-    if cond == "noise":
-        sg = lerp(8, 20, s)
+    if sh.cond == "noise":
+        sg = lerp(8, 20, sh.s)
         dn = add_noise(dn, rng, sg)
         img = pr.quantise(dn)
         m = rng.uniform(size=img.shape[:2])
@@ -551,18 +610,38 @@ def make_image(cond, i, n, seed):
         params.update(noise_sigma_dn=sg, salt_pepper=0.005)
     else:
         img = pr.quantise(dn)
-    if cond == "jpeg":
-        params["jpeg_quality"] = int(round(lerp(50, 20, s)))
-        ext = "jpg"
+    if sh.cond == "jpeg":
+        params["jpeg_quality"] = int(round(lerp(50, 20, sh.s)))
+        sh.ext = "jpg"
+    return img
 
+
+def image_truth(sh):
+    """The truth record of the image: pose, what of the target is in view, the parameters."""
+    R, p = sh.R, sh.p
     inside = ring_centres_in_image(R, p)
     full = ring_sets_fully_in_image(R, p)
-    truth = dict(condition=("far_" + cond) if far else cond, index=i, seed=seed, target_present=target_present,
-                 R_CP=R.tolist(), p_CP_m=p.tolist(), q_CP_wxyz=pr.rot_to_quat(R).tolist(),
-                 range_m=float(np.linalg.norm(p)),
-                 ring_centres_in_image=int(inside.sum()), ring_sets_fully_in_image=int(sum(full)),
-                 params=params)
-    return img, ext, truth
+    return dict(condition=("far_" + sh.cond) if sh.far else sh.cond, index=sh.i, seed=sh.seed,
+                target_present=sh.target_present,
+                R_CP=R.tolist(), p_CP_m=p.tolist(), q_CP_wxyz=pr.rot_to_quat(R).tolist(),
+                range_m=float(np.linalg.norm(p)),
+                ring_centres_in_image=int(inside.sum()), ring_sets_fully_in_image=int(sum(full)),
+                params=sh.params)
+
+
+def make_image(cond, i, n, seed):
+    """Returns (uint8 HxWx3 image, file extension, truth dict)."""
+    # The shared pose and ground, then the condition's own scene (pose, decals, dirt, shifts).
+    sh = Shot(cond, i, n, seed)
+    if sh.cond in SCENE_STEPS:
+        SCENE_STEPS[sh.cond](sh)
+    L = pr.render(sh.R, sh.p, **sh.rkw)
+    # Optics on the radiance, the camera response, then effects on the digital numbers.
+    L = optical_effects(sh, L)
+    dn = pr.response(L, sh.exposure)
+    dn, noise_sigma = dn_effects(sh, dn)
+    img = sensor_output(sh, dn, noise_sigma)
+    return img, sh.ext, image_truth(sh)
 
 
 def save_image(img, path, ext, truth):

@@ -24,22 +24,64 @@
 #include <cstdint>
 #include <string>
 #include <utility>
+#include <variant>
 #include <vector>
 
 #include <yaml-cpp/yaml.h>
 
 namespace lander::campaign {
 
-// One dispersed key: a distribution read from YAML (see distribution kinds in campaign.cpp:
-// uniform, normal (truncated with min/max), loguniform, integer, choice (with weights),
-// polar, constant), scalar or per component of a vector key.
+// The distributions a dispersion can give (campaign.cpp lists their YAML forms), parsed and
+// checked once when the campaign is loaded, so that drawing from them only draws (as Drake's
+// schema::Stochastic does). Vectors hold one entry per component of the dispersed key (one
+// for a scalar key).
+struct UniformDistribution {
+  std::vector<double> lo, hi;  ///< lo <= hi
+};
+struct LogUniformDistribution {
+  std::vector<double> lo, hi;  ///< 0 < lo <= hi; uniform in log
+};
+struct IntegerDistribution {
+  std::vector<double> lo, hi;  ///< whole numbers, lo <= hi, both ends included
+};
+struct NormalDistribution {
+  std::vector<double> mean, std;  ///< std >= 0
+  std::vector<double> min, max;   ///< truncation (+-infinity when absent), min <= max
+};
+// `choice` (and `constant`, a choice of one): YAML values of the key's shape.
+struct ChoiceDistribution {
+  std::vector<YAML::Node> options;
+  std::vector<double> weights;  ///< >= 0, one per option (1 each when not given)
+  double total_weight{0.0};     ///< > 0
+};
+// A 2- or 3-vector at a random bearing: centre + radius x (cos d, sin d), z fixed or uniform.
+struct PolarDistribution {
+  double radius_lo_m{0.0}, radius_hi_m{0.0};  ///< 0 <= lo <= hi
+  double direction_lo_deg{0.0}, direction_hi_deg{360.0};
+  double center_x{0.0}, center_y{0.0};
+  bool uniform_in_area{false};  ///< false: uniform in radius
+  std::size_t components{2};    ///< 2 or 3
+  bool z_drawn{false};          ///< 3 components: z uniform in [z_lo, z_hi], else z_lo
+  double z_lo{0.0}, z_hi{0.0};
+};
+using Distribution =
+    std::variant<UniformDistribution, LogUniformDistribution, IntegerDistribution,
+                 NormalDistribution, ChoiceDistribution, PolarDistribution>;
+
+// One dispersed key and its distribution (scalar, or per component of a vector key).
 struct Dispersion {
   std::string key;    ///< dotted scenario key, e.g. "cart.speed_mps"
   std::string where;  ///< "file:line" of the key in the campaign file
-  YAML::Node spec;    ///< the distribution mapping
-  // Draws one value for a key whose default value is `like` (a scalar or a sequence of n).
-  // `stream_seed` is the dispersion's own random stream. Throws ConfigError naming `where`.
-  YAML::Node sample(std::uint64_t stream_seed, const YAML::Node& like) const;
+  Distribution distribution;
+  bool scalar{true};  ///< the key's value is one value (else a list)
+
+  // Reads and checks the distribution mapping `spec` for a key whose default value is `like`
+  // (a scalar or a sequence of n). Throws ConfigError naming `where` and the key.
+  static Dispersion parse(const std::string& key, const std::string& where,
+                          const YAML::Node& spec, const YAML::Node& like);
+  // Draws one value from the dispersion's own random stream `stream_seed`. Throws ConfigError
+  // naming `where` only when a truncated normal finds no value inside [min, max].
+  YAML::Node sample(std::uint64_t stream_seed) const;
 };
 
 struct ScenarioEntry {
