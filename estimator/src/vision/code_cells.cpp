@@ -355,7 +355,8 @@ CodePlacement place_code_cells(const std::vector<ObservedCell>& cells, const Tar
     return best;
   }
   // The best placement over every rotation and offset, and the runner-up.
-  const PlacementSearch s = search_placements(cells, vision_internal::code_map::extended_map(g, map), n);
+  const PlacementSearch s =
+      search_placements(cells, vision_internal::code_map::extended_map(g, map), n);
   best = s.best;
   best.runner_up_mismatched = s.second_mis;
   // Full b x b window among the compared in-map cells.
