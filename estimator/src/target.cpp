@@ -211,116 +211,149 @@ inline double disc_coverage(double d, double R, double h) {
 inline double overlap_1d(double a0, double a1, double b0, double b1) {
   return std::max(0.0, std::min(a1, b1) - std::max(a0, b0));
 }
+
+// A ring's texture columns [u0, u1] on one row.
+struct Span {
+  const RingSet* ring;
+  int u0, u1;
+};
+
+// Texture columns of the platform's x within reach of x_m, two columns of margin, clipped.
+void texture_columns(const TargetGeometry& g, double x_m, double reach, int* u0, int* u1) {
+  const int N = g.texture_px;
+  const double ua = platform_to_texture(g, {x_m - reach, 0.0}).x();
+  const double ub = platform_to_texture(g, {x_m + reach, 0.0}).x();
+  *u0 = std::max(0, static_cast<int>(std::floor(ua)) - 2);
+  *u1 = std::min(N - 1, static_cast<int>(std::ceil(ub)) + 2);
+}
+
+// The rings whose bounding square the row at p_y (m) crosses, with their columns, in the
+// rings' order (pixel side h, m).
+void row_spans(const TargetGeometry& g, double p_y, double h, std::vector<Span>& spans) {
+  spans.clear();
+  for (const auto& ring : g.rings) {
+    const double reach = ring.outer_radius_m + h;
+    if (std::abs(p_y - ring.centre_P_m.y()) > reach) continue;
+    Span span{&ring, 0, 0};
+    texture_columns(g, ring.centre_P_m.x(), reach, &span.u0, &span.u1);
+    if (span.u0 <= span.u1) spans.push_back(span);
+  }
+}
+
+// The rings of `spans` covering column u blended in order into `colour` (BGR, 0-1) at the
+// pixel centre (p_x, p_y) (m).
+inline void blend_rings(const std::vector<Span>& spans, int u, double p_x, double p_y, double h,
+                        double colour[3]) {
+  for (const auto& span : spans) {
+    if (u < span.u0 || u > span.u1) continue;
+    const RingSet& ring = *span.ring;
+    // Outside the ring's bounding square the distance test below skips it too.
+    const double dx = p_x - ring.centre_P_m.x(), dy = p_y - ring.centre_P_m.y();
+    if (std::abs(dx) > ring.outer_radius_m + h || std::abs(dy) > ring.outer_radius_m + h) {
+      continue;
+    }
+    const double d = std::sqrt(dx * dx + dy * dy);
+    if (d > ring.outer_radius_m + h) continue;
+    const double a =
+        disc_coverage(d, ring.outer_radius_m, h) - disc_coverage(d, ring.inner_radius_m, h);
+    for (int ch = 0; ch < 3; ++ch) {
+      colour[ch] = colour[ch] * (1.0 - a) + ring.colour_rgb[2 - ch] * a;
+    }
+  }
+}
+
+// The fraction of the pixel square of side h centred at (p_x, p_y) (m) that the code's dark
+// cells cover.
+inline double code_dark_fraction(const TargetGeometry& g, const std::vector<std::uint8_t>& code,
+                                 double p_x, double p_y, double h) {
+  const double code_half = 0.5 * g.code.side_m();
+  // Area of each dark cell inside this pixel's square.
+  const double x0 = p_x - 0.5 * h, x1 = p_x + 0.5 * h;
+  const double y0 = p_y - 0.5 * h, y1 = p_y + 0.5 * h;
+  const int c0 =
+      std::max(0, static_cast<int>(std::floor((x0 + code_half) / g.code.cell_m)));
+  const int c1 = std::min(g.code.cells - 1,
+                          static_cast<int>(std::floor((x1 + code_half) / g.code.cell_m)));
+  const int r0 =
+      std::max(0, static_cast<int>(std::floor((code_half - y1) / g.code.cell_m)));
+  const int r1 = std::min(g.code.cells - 1,
+                          static_cast<int>(std::floor((code_half - y0) / g.code.cell_m)));
+  double dark = 0.0;
+  for (int r = r0; r <= r1; ++r) {
+    for (int c = c0; c <= c1; ++c) {
+      if (!code[r * g.code.cells + c]) continue;
+      const double cx0 = -code_half + c * g.code.cell_m,
+                   cy1 = code_half - r * g.code.cell_m;
+      dark += overlap_1d(x0, x1, cx0, cx0 + g.code.cell_m) *
+              overlap_1d(y0, y1, cy1 - g.code.cell_m, cy1);
+    }
+  }
+  return dark / (h * h);
+}
+
+// Texture row v into `row`: the background (BGR, 0-1: bg; 8-bit: bg_px) outside every ring's
+// and the code square's columns, elsewhere the rings blended in and the code's cells.
+void render_row(const TargetGeometry& g, const std::vector<std::uint8_t>& code,
+                const cv::Vec3d& bg, const cv::Vec3b& bg_px, int v, std::vector<Span>& spans,
+                cv::Vec3b* row) {
+  const int N = g.texture_px;
+  const double h = 1.0 / g.px_per_m();  // pixel side (m)
+  const double s_px = g.px_per_m();
+  const double code_half = 0.5 * g.code.side_m();
+  const double p_y = texture_to_platform(g, 0, v).y();
+  row_spans(g, p_y, h, spans);
+  // The code square's columns on this row (the same margin); elsewhere, with no ring's
+  // span either, a pixel is the background.
+  int code_u0 = N, code_u1 = -1;
+  if (g.code.cells > 0 && std::abs(p_y) < code_half + h) {
+    texture_columns(g, 0.0, code_half + h, &code_u0, &code_u1);
+  }
+  for (int u = 0; u < N; ++u) {
+    if (u < code_u0 || u > code_u1) {
+      bool covered = false;
+      for (const auto& span : spans) covered = covered || (u >= span.u0 && u <= span.u1);
+      if (!covered) {
+        row[u] = bg_px;
+        continue;
+      }
+    }
+    // Scalar arithmetic (no Eigen/cv temporaries per pixel: uninlined under the
+    // sanitizers, they made this texture ~15 s there), the same operations in the same
+    // order as texture_to_platform(), Vector2d::norm() and Vec3d's blend.
+    const double p_x = (u + 0.5) / s_px - 0.5 * g.platform_size_m.x();
+    double colour[3] = {bg[0], bg[1], bg[2]};
+    blend_rings(spans, u, p_x, p_y, h, colour);
+    if (g.code.cells > 0 && std::abs(p_x) < code_half + h && std::abs(p_y) < code_half + h) {
+      const double a = code_dark_fraction(g, code, p_x, p_y, h);
+      for (double& c : colour) c = c * (1.0 - a);
+    }
+    for (int ch = 0; ch < 3; ++ch) {
+      row[u][ch] = cv::saturate_cast<std::uint8_t>(std::lround(colour[ch] * 255.0));
+    }
+  }
+}
+
 }  // namespace
 
 cv::Mat render_target_texture(const TargetGeometry& g) {
   const int N = g.texture_px;
-  const double h = 1.0 / g.px_per_m();  // pixel side (m)
   cv::Mat img(N, N, CV_8UC3);
   const std::vector<std::uint8_t> code = generate_code_map(g.code);
-  const double code_half = 0.5 * g.code.side_m();
   const cv::Vec3d bg(g.background_rgb[2], g.background_rgb[1], g.background_rgb[0]);
+  cv::Vec3b bg_px;
+  for (int ch = 0; ch < 3; ++ch) {
+    bg_px[ch] = cv::saturate_cast<std::uint8_t>(std::lround(bg[ch] * 255.0));
+  }
   // Rows are independent: drawn in parallel, the same bytes as in one thread.
   // A ring can cover a pixel only within its bounding square (half side outer radius + h):
   // each row keeps the rings whose square it crosses, each with the columns of that square
   // (two columns of margin; the exact per-pixel test below decides), so a pixel visits only
   // the rings that can reach it, in the rings' order (the same blend, the same bytes).
-  struct Span {
-    const RingSet* ring;
-    int u0, u1;
-  };
-  const double s_px = g.px_per_m();
-  cv::Vec3b bg_px;
-  for (int ch = 0; ch < 3; ++ch) {
-    bg_px[ch] = cv::saturate_cast<std::uint8_t>(std::lround(bg[ch] * 255.0));
-  }
-  // Texture columns of the platform's x within reach of x_m, two columns of margin, clipped.
-  auto columns = [&](double x_m, double reach, int* u0, int* u1) {
-    const double ua = platform_to_texture(g, {x_m - reach, 0.0}).x();
-    const double ub = platform_to_texture(g, {x_m + reach, 0.0}).x();
-    *u0 = std::max(0, static_cast<int>(std::floor(ua)) - 2);
-    *u1 = std::min(N - 1, static_cast<int>(std::ceil(ub)) + 2);
-  };
   cv::parallel_for_(cv::Range(0, N), [&](const cv::Range& rows) {
     std::vector<Span> spans;
     spans.reserve(g.rings.size());
     for (int v = rows.start; v < rows.end; ++v) {
-      auto* row = img.ptr<cv::Vec3b>(v);
-      const double p_y = texture_to_platform(g, 0, v).y();
-      spans.clear();
-      for (const auto& ring : g.rings) {
-        const double reach = ring.outer_radius_m + h;
-        if (std::abs(p_y - ring.centre_P_m.y()) > reach) continue;
-        Span span{&ring, 0, 0};
-        columns(ring.centre_P_m.x(), reach, &span.u0, &span.u1);
-        if (span.u0 <= span.u1) spans.push_back(span);
-      }
-      // The code square's columns on this row (the same margin); elsewhere, with no ring's
-      // span either, a pixel is the background.
-      int code_u0 = N, code_u1 = -1;
-      if (g.code.cells > 0 && std::abs(p_y) < code_half + h) {
-        columns(0.0, code_half + h, &code_u0, &code_u1);
-      }
-      for (int u = 0; u < N; ++u) {
-        if (u < code_u0 || u > code_u1) {
-          bool covered = false;
-          for (const auto& span : spans) covered = covered || (u >= span.u0 && u <= span.u1);
-          if (!covered) {
-            row[u] = bg_px;
-            continue;
-          }
-        }
-        // Scalar arithmetic (no Eigen/cv temporaries per pixel: uninlined under the
-        // sanitizers, they made this texture ~15 s there), the same operations in the same
-        // order as texture_to_platform(), Vector2d::norm() and Vec3d's blend.
-        const Eigen::Vector2d p((u + 0.5) / s_px - 0.5 * g.platform_size_m.x(), p_y);
-        double colour[3] = {bg[0], bg[1], bg[2]};
-        for (const auto& span : spans) {
-          if (u < span.u0 || u > span.u1) continue;
-          const RingSet& ring = *span.ring;
-          // Outside the ring's bounding square the distance test below skips it too.
-          const double dx = p.x() - ring.centre_P_m.x(), dy = p_y - ring.centre_P_m.y();
-          if (std::abs(dx) > ring.outer_radius_m + h || std::abs(dy) > ring.outer_radius_m + h) {
-            continue;
-          }
-          const double d = std::sqrt(dx * dx + dy * dy);
-          if (d > ring.outer_radius_m + h) continue;
-          const double a =
-              disc_coverage(d, ring.outer_radius_m, h) - disc_coverage(d, ring.inner_radius_m, h);
-          for (int ch = 0; ch < 3; ++ch) {
-            colour[ch] = colour[ch] * (1.0 - a) + ring.colour_rgb[2 - ch] * a;
-          }
-        }
-        if (g.code.cells > 0 && std::abs(p.x()) < code_half + h &&
-            std::abs(p.y()) < code_half + h) {
-          // Area of each dark cell inside this pixel's square.
-          const double x0 = p.x() - 0.5 * h, x1 = p.x() + 0.5 * h;
-          const double y0 = p.y() - 0.5 * h, y1 = p.y() + 0.5 * h;
-          const int c0 =
-              std::max(0, static_cast<int>(std::floor((x0 + code_half) / g.code.cell_m)));
-          const int c1 = std::min(g.code.cells - 1,
-                                  static_cast<int>(std::floor((x1 + code_half) / g.code.cell_m)));
-          const int r0 =
-              std::max(0, static_cast<int>(std::floor((code_half - y1) / g.code.cell_m)));
-          const int r1 = std::min(g.code.cells - 1,
-                                  static_cast<int>(std::floor((code_half - y0) / g.code.cell_m)));
-          double dark = 0.0;
-          for (int r = r0; r <= r1; ++r) {
-            for (int c = c0; c <= c1; ++c) {
-              if (!code[r * g.code.cells + c]) continue;
-              const double cx0 = -code_half + c * g.code.cell_m,
-                           cy1 = code_half - r * g.code.cell_m;
-              dark += overlap_1d(x0, x1, cx0, cx0 + g.code.cell_m) *
-                      overlap_1d(y0, y1, cy1 - g.code.cell_m, cy1);
-            }
-          }
-          const double a = dark / (h * h);
-          for (double& c : colour) c = c * (1.0 - a);
-        }
-        for (int ch = 0; ch < 3; ++ch) {
-          row[u][ch] = cv::saturate_cast<std::uint8_t>(std::lround(colour[ch] * 255.0));
-        }
-      }
+      render_row(g, code, bg, bg_px, v, spans, img.ptr<cv::Vec3b>(v));
     }
   });
   return img;

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <deque>
+#include <utility>
 
 namespace lander {
 namespace {
@@ -13,6 +15,53 @@ constexpr double kGpsHoldMax_s = 1.0;
 constexpr double kFirstPairMax_s = 0.5;
 // The held error is applied for this many of the last fix intervals after a fix arrives.
 constexpr double kHoldIntervals = 1.5;
+
+// The IMU side's low-passed specific force at t_ref (W): the last of `hist` at or before it,
+// else `f_lp`.
+Eigen::Vector3d specific_force_at(const std::deque<std::pair<double, Eigen::Vector3d>>& hist,
+                                  const Eigen::Vector3d& f_lp, double t_ref) {
+  Eigen::Vector3d f_ref = f_lp;
+  for (const auto& h : hist) {
+    if (h.first <= t_ref) f_ref = h.second;
+  }
+  return f_ref;
+}
+
+// The attitude error (W) between the IMU's specific force f_ref and the one the GPS
+// acceleration a_gps_W implies, zero unless |f_ref| is within the accelerometer gate of g;
+// its z part from the directions of the two horizontal accelerations.
+Eigen::Vector3d gps_attitude_error(const NavigationParams& p, const Eigen::Vector3d& f_ref,
+                                   const Eigen::Vector3d& a_gps_W) {
+  Eigen::Vector3d e_W = Eigen::Vector3d::Zero();
+  const Eigen::Vector3d ez = Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d ref_W = a_gps_W + p.gravity_mps2 * ez;
+  const double fn = f_ref.norm();
+  if (std::abs(fn - p.gravity_mps2) < p.accel_gate_frac * p.gravity_mps2) {
+    e_W = (f_ref / fn).cross(ref_W.normalized());
+    // Yaw from the direction of the horizontal acceleration.
+    const Eigen::Vector2d a_meas = (f_ref - p.gravity_mps2 * ez).head<2>();
+    const Eigen::Vector2d a_ref = a_gps_W.head<2>();
+    if (a_meas.norm() > p.yaw_min_accel_mps2 && a_ref.norm() > p.yaw_min_accel_mps2) {
+      const Eigen::Vector2d m = a_meas.normalized(), r = a_ref.normalized();
+      e_W.z() += (p.mahony_k_yaw / std::max(p.mahony_kp, 1e-9)) * (m.x() * r.y() - m.y() * r.x());
+    }
+  }
+  return e_W;
+}
+
+// One gated scalar update (seed 004 eq. 27) of the axis state x = (p, v, b_a) with
+// covariance P by the measurement z = H x + noise of variance R: a residual beyond
+// gate_sigma sigmas enters with gate_factor_n of its gain.
+void gated_scalar_update(const NavigationParams& p, const Eigen::RowVector3d& H, double z,
+                         double R, Eigen::Vector3d& x, Eigen::Matrix3d& P) {
+  const double r = z - H * x;
+  const double S = (H * P * H.transpose())(0, 0) + R;
+  const double scale = std::abs(r) > p.gate_sigma * std::sqrt(S) ? p.gate_factor_n : 1.0;
+  const Eigen::Vector3d K = scale * P * H.transpose() / S;
+  x += K * r;
+  const Eigen::Matrix3d IKH = Eigen::Matrix3d::Identity() - K * H;
+  P = IKH * P * IKH.transpose() + K * R * K.transpose();
+}
 }  // namespace
 
 void NavigationParams::validate() const {
@@ -174,24 +223,8 @@ bool Navigation::add_gps(const GpsSample& gps) {
     have_a_gps_ = true;
     // IMU-side specific force at the time a_raw refers to.
     const double t_ref = gps.t_s - 0.5 * dtg;
-    Eigen::Vector3d f_ref = f_W_lp_;
-    for (const auto& h : f_W_hist_) {
-      if (h.first <= t_ref) f_ref = h.second;
-    }
-    const Eigen::Vector3d ez = Eigen::Vector3d::UnitZ();
-    const Eigen::Vector3d ref_W = a_gps_W_ + p_.gravity_mps2 * ez;
-    const double fn = f_ref.norm();
-    e_W_hold_.setZero();
-    if (std::abs(fn - p_.gravity_mps2) < p_.accel_gate_frac * p_.gravity_mps2) {
-      e_W_hold_ = (f_ref / fn).cross(ref_W.normalized());
-      // Yaw from the direction of the horizontal acceleration.
-      const Eigen::Vector2d a_meas = (f_ref - p_.gravity_mps2 * ez).head<2>();
-      const Eigen::Vector2d a_ref = a_gps_W_.head<2>();
-      if (a_meas.norm() > p_.yaw_min_accel_mps2 && a_ref.norm() > p_.yaw_min_accel_mps2) {
-        const Eigen::Vector2d m = a_meas.normalized(), r = a_ref.normalized();
-        e_W_hold_.z() += (p_.mahony_k_yaw / std::max(p_.mahony_kp, 1e-9)) * (m.x() * r.y() - m.y() * r.x());
-      }
-    }
+    const Eigen::Vector3d f_ref = specific_force_at(f_W_hist_, f_W_lp_, t_ref);
+    e_W_hold_ = gps_attitude_error(p_, f_ref, a_gps_W_);
   }
   t_gps_prev_ = gps.t_s;
   t_gps_arrival_s_ = t_s_;
@@ -237,16 +270,7 @@ bool Navigation::add_gps(const GpsSample& gps) {
                                       Eigen::RowVector3d(0.0, 1.0, 0.0)};
     const double zs[2] = {gps.p_W_m[i], gps.v_W_mps[i] + a_W_[i] * a};
     const double Rs[2] = {sd_p[i] * sd_p[i], p_.gps_velocity_std_mps * p_.gps_velocity_std_mps};
-    for (int k = 0; k < 2; ++k) {
-      const Eigen::RowVector3d& H = Hs[k];
-      const double r = zs[k] - H * x;
-      const double S = (H * P_[i] * H.transpose())(0, 0) + Rs[k];
-      const double scale = std::abs(r) > p_.gate_sigma * std::sqrt(S) ? p_.gate_factor_n : 1.0;
-      const Eigen::Vector3d K = scale * P_[i] * H.transpose() / S;
-      x += K * r;
-      const Eigen::Matrix3d IKH = Eigen::Matrix3d::Identity() - K * H;
-      P_[i] = IKH * P_[i] * IKH.transpose() + K * Rs[k] * K.transpose();
-    }
+    for (int k = 0; k < 2; ++k) gated_scalar_update(p_, Hs[k], zs[k], Rs[k], x, P_[i]);
     pos_[i] = x[0];
     vel_[i] = x[1];
     b_a_[i] = x[2];

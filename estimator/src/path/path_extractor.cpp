@@ -68,39 +68,20 @@ void remove_small_components(cv::Mat& mask, int min_px) {
   }
 }
 
-}  // namespace
-
-PathObservation PathExtractor::extract(const cv::Mat& bgr, Debug* debug) const {
-  const auto t0 = std::chrono::steady_clock::now();
-  PathObservation obs;
-  obs.fx = cam_.fx_px;
-  obs.fy = cam_.fy_px;
-  obs.cx = cam_.cx_px;
-  obs.cy = cam_.cy_px;
-  obs.width_px = cam_.width_px;
-  obs.height_px = cam_.height_px;
-  const auto finish = [&]() {
-    obs.valid = !obs.points_px.empty();
-    obs.process_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    return obs;
-  };
-  if (debug) *debug = Debug{};
-  // Bad content is not an error of the caller's program: no points.
-  if (!params_.enabled || bgr.empty() || bgr.type() != CV_8UC3 || bgr.cols != cam_.width_px ||
-      bgr.rows != cam_.height_px)
-    return finish();
-
-  // Work resolution: width work_width_px, aspect kept. Scale factors full / work per axis.
-  const int ww = std::min(params_.work_width_px, bgr.cols);
+// The frame at the work resolution: width work_width_px (at most the frame's), aspect kept.
+cv::Mat work_image(const cv::Mat& bgr, int work_width_px) {
+  const int ww = std::min(work_width_px, bgr.cols);
   const int wh = std::max(1, static_cast<int>(std::lround(double(bgr.rows) * ww / bgr.cols)));
   cv::Mat small;
   if (ww == bgr.cols && wh == bgr.rows)
     small = bgr;
   else
     cv::resize(bgr, small, cv::Size(ww, wh), 0, 0, cv::INTER_AREA);
-  const double sx = double(bgr.cols) / ww, sy = double(bgr.rows) / wh;
+  return small;
+}
 
+// The paint-coloured pixels of the work image (0 / 255).
+cv::Mat paint_mask(const cv::Mat& small, const PathExtractorParams& params_) {
   // eq. 6: r_min <= R <= r_max, g_min <= G <= g_max, b_min <= B <= b_max (BGR order), and the
   // red-dominance test R - max(G, B) > min_dominance (saturating subtraction: a negative
   // difference becomes 0, which never exceeds a threshold >= 0).
@@ -116,9 +97,11 @@ PathObservation PathExtractor::extract(const cv::Mat& bgr, Debug* debug) const {
     cv::Mat dominant = dom > params_.min_dominance;
     cv::bitwise_and(mask, dominant, mask);
   }
-  obs.paint_pixels = cv::countNonZero(mask);
-  if (debug) debug->mask = mask.clone();
+  return mask;
+}
 
+// The route's body: the mask eroded, without speckles.
+cv::Mat route_body(const cv::Mat& mask, const PathExtractorParams& params_) {
   // eq. 7: erosion A (-) B = {z | (B)_z subset of A} with a square erode_px x erode_px
   // structuring element B; outside the image counts as background, so a route leaving the
   // frame is not widened at the border.
@@ -130,7 +113,11 @@ PathObservation PathExtractor::extract(const cv::Mat& bgr, Debug* debug) const {
   }
   // Speckles of paint-coloured noise: components below min_component_px.
   remove_small_components(body, params_.min_component_px);
+  return body;
+}
 
+// The body's centre line (0 / 255), one pixel wide.
+cv::Mat centre_line(const cv::Mat& body) {
   // eq. 8-9: thinning A (x) B = A - (A hit-or-miss B), iterated with Zhang-Suen's pair of
   // sub-iterations until nothing changes: a one-pixel wide, 8-connected centre line.
   // Zhang-Suen is local, so only the bounding box of the paint is thinned (the cost of
@@ -145,8 +132,15 @@ PathObservation PathExtractor::extract(const cv::Mat& bgr, Debug* debug) const {
     cv::ximgproc::thinning(framed, thin, cv::ximgproc::THINNING_ZHANGSUEN);
     thin(cv::Rect(1, 1, box.width, box.height)).copyTo(centre(box));
   }
-  if (debug) debug->centerline = centre.clone();
+  return centre;
+}
 
+// The grid's points in full-resolution raw px (scale factors sx, sy full / work per axis),
+// their cells appended to obs.cells and the centre-line pixels counted in
+// obs.centerline_pixels.
+std::vector<cv::Point2d> grid_points(const cv::Mat& centre, const PathExtractorParams& params_,
+                                     double sx, double sy, PathObservation& obs) {
+  const int ww = centre.cols, wh = centre.rows;
   // The M x N grid: work pixel (x, y) is in cell (x * M / w, y * N / h) (integer division, so
   // the cells tile the image exactly). Each cell's point is the mean of its centre-line pixels.
   const int M = params_.grid_cols, N = params_.grid_rows;
@@ -177,6 +171,43 @@ PathObservation PathExtractor::extract(const cv::Mat& bgr, Debug* debug) const {
     raw.emplace_back((mx + 0.5) * sx - 0.5, (my + 0.5) * sy - 0.5);
     obs.cells.emplace_back(k % M, k / M);
   }
+  return raw;
+}
+
+}  // namespace
+
+PathObservation PathExtractor::extract(const cv::Mat& bgr, Debug* debug) const {
+  const auto t0 = std::chrono::steady_clock::now();
+  PathObservation obs;
+  obs.fx = cam_.fx_px;
+  obs.fy = cam_.fy_px;
+  obs.cx = cam_.cx_px;
+  obs.cy = cam_.cy_px;
+  obs.width_px = cam_.width_px;
+  obs.height_px = cam_.height_px;
+  const auto finish = [&]() {
+    obs.valid = !obs.points_px.empty();
+    obs.process_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    return obs;
+  };
+  if (debug) *debug = Debug{};
+  // Bad content is not an error of the caller's program: no points.
+  if (!params_.enabled || bgr.empty() || bgr.type() != CV_8UC3 || bgr.cols != cam_.width_px ||
+      bgr.rows != cam_.height_px)
+    return finish();
+
+  // Work resolution: width work_width_px, aspect kept. Scale factors full / work per axis.
+  const cv::Mat small = work_image(bgr, params_.work_width_px);
+  const double sx = double(bgr.cols) / small.cols, sy = double(bgr.rows) / small.rows;
+  // The paint (eq. 6), its body (eq. 7) and centre line (eq. 8-9).
+  const cv::Mat mask = paint_mask(small, params_);
+  obs.paint_pixels = cv::countNonZero(mask);
+  if (debug) debug->mask = mask.clone();
+  const cv::Mat centre = centre_line(route_body(mask, params_));
+  if (debug) debug->centerline = centre.clone();
+  // One point per grid cell on the centre line.
+  const std::vector<cv::Point2d> raw = grid_points(centre, params_, sx, sy, obs);
   if (raw.empty()) return finish();
 
   // The points lie on the distorted image: undistort them into the calibration's pinhole

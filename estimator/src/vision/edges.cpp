@@ -50,6 +50,230 @@ constexpr double kMinNoiseGrey = 2.0;
 // mid-level crossing adds far less than 0.01 px for the blurred edges seen here.
 constexpr double kProfileStepPx = 0.25;
 
+// The normal profiles of one ellipse: n profiles of m samples kProfileStepPx apart over
+// [-L, L] along the normal at base[k] (ROI px); valid[k] when the profile lies in the ROI
+// and swings by kMinEdgeContrast, with its dark and light values plo[k], phi[k]; glo, ghi
+// the darkest and brightest of those over all valid profiles.
+struct EdgeProfiles {
+  int n{0}, m{0};
+  double L{0.0};
+  std::vector<double> prof;  // n x m
+  std::vector<char> valid;
+  std::vector<double> plo, phi;
+  std::vector<Eigen::Vector2d> base, normal;
+  double glo{1e9}, ghi{-1e9};
+};
+
+// The profiles along p.edge_samples normals of `e` within +-search_px (at most 0.6 b).
+// `split_light`: each profile's dark and light values are its own edge's (see below).
+EdgeProfiles sample_profiles(const cv::Mat& img, const cv::Point2f& off, const EllipseParams& e,
+                             double search_px, const VisionParams& p, bool split_light) {
+  EdgeProfiles ep;
+  const int n = p.edge_samples;
+  ep.n = n;
+  ep.L = std::clamp(std::min(search_px, 0.6 * e.b), 0.75, search_px);
+  const double L = ep.L;
+  const int m = static_cast<int>(std::round(2 * L / kProfileStepPx)) + 1;
+  ep.m = m;
+  ep.prof.resize(static_cast<std::size_t>(n) * m);
+  ep.valid.assign(n, 0);
+  ep.plo.assign(n, 0.0);
+  ep.phi.assign(n, 0.0);
+  ep.base.resize(n);
+  ep.normal.resize(n);
+  const double ca = std::cos(e.angle_rad), sa = std::sin(e.angle_rad);
+  for (int k = 0; k < n; ++k) {
+    const double th = 2.0 * M_PI * (k + 0.5) / n;
+    const double lx = e.a * std::cos(th), ly = e.b * std::sin(th);
+    const Eigen::Vector2d x(e.centre.x() + ca * lx - sa * ly - off.x,
+                            e.centre.y() + sa * lx + ca * ly - off.y);
+    Eigen::Vector2d nl(std::cos(th) / e.a, std::sin(th) / e.b);
+    Eigen::Vector2d nrm(ca * nl.x() - sa * nl.y(), sa * nl.x() + ca * nl.y());
+    nrm.normalize();
+    ep.base[k] = x;
+    ep.normal[k] = nrm;
+    bool ok = true;
+    double lo = 1e9, hi = -1e9;
+    double* pr = &ep.prof[static_cast<std::size_t>(k) * m];
+    for (int j = 0; j < m && ok; ++j) {
+      const double s = -L + j * kProfileStepPx;
+      ok = sample(img, x.x() + s * nrm.x(), x.y() + s * nrm.y(), pr[j]);
+      lo = std::min(lo, pr[j]);
+      hi = std::max(hi, pr[j]);
+    }
+    if (!ok || hi - lo < kMinEdgeContrast) continue;
+    if (split_light) {
+      // This edge's own dark and light values: from the profile's middle, strictly downhill
+      // and strictly uphill. A further edge within reach of the profile (a shadow's edge a
+      // pixel or two beyond the ring's) lies past a plateau and is not reached.
+      const int jc = m / 2;
+      const int up = pr[std::min(m - 1, jc + 2)] >= pr[std::max(0, jc - 2)] ? 1 : -1;
+      int j = jc;
+      while (j + up >= 0 && j + up < m && pr[j + up] > pr[j]) j += up;
+      hi = pr[j];
+      j = jc;
+      while (j - up >= 0 && j - up < m && pr[j - up] < pr[j]) j -= up;
+      lo = pr[j];
+      if (hi - lo < kMinEdgeContrast) continue;
+    }
+    ep.valid[k] = 1;
+    ep.plo[k] = lo;
+    ep.phi[k] = hi;
+    ep.glo = std::min(ep.glo, lo);
+    ep.ghi = std::max(ep.ghi, hi);
+  }
+  return ep;
+}
+
+// Fewer profiles than this form no group of one illumination.
+constexpr int kMinGroup = 4;
+
+// The brightest value that splits the profiles into a shadowed and a lit class, or -1 for one
+// illumination.
+double shadow_split(const EdgeProfiles& ep, const VisionParams& p) {
+  const int n = ep.n;
+  double split_at = -1.0;
+  std::vector<double> lh;  // log of the brightest values, sorted
+  for (int k = 0; k < n; ++k) {
+    if (ep.valid[k]) lh.push_back(std::log(std::max(ep.phi[k], 1.0)));
+  }
+  std::sort(lh.begin(), lh.end());
+  const int nv = static_cast<int>(lh.size());
+  if (nv >= 2 * kMinGroup) {
+    const int best_i = otsu_split_sorted(lh).k;
+    const double med_lo = lh[best_i / 2], med_hi = lh[best_i + (nv - best_i) / 2];
+    if (best_i >= kMinGroup && nv - best_i >= kMinGroup &&
+        med_hi - med_lo >= std::log(p.shadow_split_ratio)) {
+      split_at = std::exp(0.5 * (lh[best_i - 1] + lh[best_i]));
+      // A band's two straight edges cut an ellipse in at most four points, so the classes
+      // alternate at most four times around it; more alternations are texture next to the
+      // edge (the code cells inside the central ring), not a shadow.
+      constexpr int kMaxShadowCrossings = 4;
+      int changes = 0, first = -1, prev = -1;
+      for (int k = 0; k < n; ++k) {
+        if (!ep.valid[k]) continue;
+        const int cls = ep.phi[k] < split_at ? 0 : 1;
+        if (first < 0) first = cls;
+        if (prev >= 0 && cls != prev) ++changes;
+        prev = cls;
+      }
+      if (prev >= 0 && prev != first) ++changes;
+      if (changes > kMaxShadowCrossings) split_at = -1.0;
+    }
+  }
+  return split_at;
+}
+
+// Each profile's group (0 one illumination, 1 and 2 the two illuminations, -1 not used) and
+// each group's level.
+struct ProfileGroups {
+  std::vector<int> group;
+  double level[3];
+};
+
+// Group gi's profiles beyond 3 robust sigmas of its median dark or light value leave it; a
+// group of fewer than kMinGroup is not used, else its level is set.
+void robust_group_level(const EdgeProfiles& ep, int gi, ProfileGroups& g) {
+  const int n = ep.n;
+  std::vector<int>& group = g.group;
+  auto median_sigma = [](std::vector<double> v, double& med, double& sig) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    med = v[v.size() / 2];
+    for (double& x : v) x = std::abs(x - med);
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    sig = 1.4826 * std::max(v[v.size() / 2], kMinNoiseGrey);
+  };
+  std::vector<double> los, his;
+  for (int k = 0; k < n; ++k) {
+    if (!ep.valid[k] || group[k] != gi) continue;
+    los.push_back(ep.plo[k]);
+    his.push_back(ep.phi[k]);
+  }
+  if (los.empty()) return;
+  double mlo, slo, mhi, shi;
+  median_sigma(los, mlo, slo);
+  median_sigma(his, mhi, shi);
+  double lo = 1e9, hi = -1e9;
+  int used = 0;
+  for (int k = 0; k < n; ++k) {
+    if (!ep.valid[k] || group[k] != gi) continue;
+    if (std::abs(ep.plo[k] - mlo) > 3 * slo || std::abs(ep.phi[k] - mhi) > 3 * shi) {
+      group[k] = -1;
+      continue;
+    }
+    lo = std::min(lo, ep.plo[k]);
+    hi = std::max(hi, ep.phi[k]);
+    ++used;
+  }
+  if (used < kMinGroup) {
+    for (int k = 0; k < n; ++k) {
+      if (ep.valid[k] && group[k] == gi) group[k] = -1;
+    }
+  } else {
+    g.level[gi] = 0.5 * (lo + hi);
+  }
+}
+
+// The groups: all profiles in one at the global level; with split_light, the two classes of
+// `split_at` (if > 0) without the profiles next to a change of class, each group's outliers
+// dropped and its own level.
+ProfileGroups illumination_groups(const EdgeProfiles& ep, double split_at, bool split_light) {
+  const int n = ep.n;
+  const double level = 0.5 * (ep.glo + ep.ghi);
+  ProfileGroups g{std::vector<int>(n, 0), {level, level, level}};
+  if (!split_light) return g;
+  std::vector<int>& group = g.group;
+  if (split_at > 0) {
+    for (int k = 0; k < n; ++k) {
+      if (ep.valid[k]) group[k] = ep.phi[k] < split_at ? 2 : 1;
+    }
+    std::vector<int> g2 = group;
+    for (int k = 0; k < n; ++k) {
+      const int a = (k + n - 1) % n, b = (k + 1) % n;
+      if (ep.valid[k] && ((ep.valid[a] && group[a] != group[k]) ||
+                          (ep.valid[b] && group[b] != group[k]))) {
+        g2[k] = -1;
+      }
+    }
+    group.swap(g2);
+  }
+  for (int gi : {0, 1, 2}) robust_group_level(ep, gi, g);
+  return g;
+}
+
+// Each used profile's crossing of its group's level nearest to the ellipse, moved outwards by
+// the curvature correction s2 kappa / 2, in full-image px.
+std::vector<Eigen::Vector2d> level_crossings(const EdgeProfiles& ep, const ProfileGroups& g,
+                                             const cv::Point2f& off, const EllipseParams& e,
+                                             double s2) {
+  std::vector<Eigen::Vector2d> pts;
+  const int n = ep.n, m = ep.m;
+  const double L = ep.L;
+  pts.reserve(n);
+  for (int k = 0; k < n; ++k) {
+    if (!ep.valid[k] || g.group[k] < 0) continue;
+    const double level = g.level[g.group[k]];
+    const double* pr = &ep.prof[static_cast<std::size_t>(k) * m];
+    double best = 1e9;
+    for (int j = 0; j + 1 < m; ++j) {
+      const double d0 = pr[j] - level, d1 = pr[j + 1] - level;
+      if ((d0 < 0) == (d1 < 0) && d0 != 0) continue;
+      const double f = (d0 == d1) ? 0.5 : d0 / (d0 - d1);
+      const double s = -L + (j + f) * kProfileStepPx;
+      if (std::abs(s) < std::abs(best)) best = s;
+    }
+    if (std::abs(best) > L) continue;
+    const double th = 2.0 * M_PI * (k + 0.5) / n;
+    const double den = std::pow(e.a * e.a * std::sin(th) * std::sin(th) +
+                                    e.b * e.b * std::cos(th) * std::cos(th), 1.5);
+    const double kappa = e.a * e.b / den;
+    best += 0.5 * s2 * kappa;
+    pts.emplace_back(ep.base[k].x() + best * ep.normal[k].x() + off.x,
+                     ep.base[k].y() + best * ep.normal[k].y() + off.y);
+  }
+  return pts;
+}
+
 // Sub-pixel edge points of ellipse `e` (full-image px): along each sampled normal, the
 // crossing of the mid-level between the profile's darkest and brightest values nearest to
 // the ellipse. `img` is the (blurred) ROI, `off` its origin in the full image.
@@ -75,60 +299,10 @@ std::vector<Eigen::Vector2d> edge_points(const cv::Mat& img, const cv::Point2f& 
                                          const EllipseParams& e, double search_px,
                                          const VisionParams& p, bool split_light,
                                          bool* two_lights = nullptr) {
-  std::vector<Eigen::Vector2d> pts;
-  const int n = p.edge_samples;
-  pts.reserve(n);
   const double s2 = p.gaussian_sigma_px * p.gaussian_sigma_px +
                     p.edge_blur_sigma_px * p.edge_blur_sigma_px + 1.0 / 12.0;
-  const double L = std::clamp(std::min(search_px, 0.6 * e.b), 0.75, search_px);
-  const int m = static_cast<int>(std::round(2 * L / kProfileStepPx)) + 1;
-  std::vector<double> prof(static_cast<std::size_t>(n) * m);
-  std::vector<char> valid(n, 0);
-  std::vector<double> plo(n, 0.0), phi(n, 0.0);
-  std::vector<Eigen::Vector2d> base(n), normal(n);
-  const double ca = std::cos(e.angle_rad), sa = std::sin(e.angle_rad);
-  double glo = 1e9, ghi = -1e9;
-  for (int k = 0; k < n; ++k) {
-    const double th = 2.0 * M_PI * (k + 0.5) / n;
-    const double lx = e.a * std::cos(th), ly = e.b * std::sin(th);
-    const Eigen::Vector2d x(e.centre.x() + ca * lx - sa * ly - off.x,
-                            e.centre.y() + sa * lx + ca * ly - off.y);
-    Eigen::Vector2d nl(std::cos(th) / e.a, std::sin(th) / e.b);
-    Eigen::Vector2d nrm(ca * nl.x() - sa * nl.y(), sa * nl.x() + ca * nl.y());
-    nrm.normalize();
-    base[k] = x;
-    normal[k] = nrm;
-    bool ok = true;
-    double lo = 1e9, hi = -1e9;
-    double* pr = &prof[static_cast<std::size_t>(k) * m];
-    for (int j = 0; j < m && ok; ++j) {
-      const double s = -L + j * kProfileStepPx;
-      ok = sample(img, x.x() + s * nrm.x(), x.y() + s * nrm.y(), pr[j]);
-      lo = std::min(lo, pr[j]);
-      hi = std::max(hi, pr[j]);
-    }
-    if (!ok || hi - lo < kMinEdgeContrast) continue;
-    if (split_light) {
-      // This edge's own dark and light values: from the profile's middle, strictly downhill
-      // and strictly uphill. A further edge within reach of the profile (a shadow's edge a
-      // pixel or two beyond the ring's) lies past a plateau and is not reached.
-      const int jc = m / 2;
-      const int up = pr[std::min(m - 1, jc + 2)] >= pr[std::max(0, jc - 2)] ? 1 : -1;
-      int j = jc;
-      while (j + up >= 0 && j + up < m && pr[j + up] > pr[j]) j += up;
-      hi = pr[j];
-      j = jc;
-      while (j - up >= 0 && j - up < m && pr[j - up] < pr[j]) j -= up;
-      lo = pr[j];
-      if (hi - lo < kMinEdgeContrast) continue;
-    }
-    valid[k] = 1;
-    plo[k] = lo;
-    phi[k] = hi;
-    glo = std::min(glo, lo);
-    ghi = std::max(ghi, hi);
-  }
-  const double level = 0.5 * (glo + ghi);
+  // The normal profiles, with their dark and light values.
+  const EdgeProfiles ep = sample_profiles(img, off, e, search_px, p, split_light);
   // Shadow pass: one or two illuminations. The profiles' brightest values are split in two
   // classes (Otsu on their logarithm); if the classes' medians differ by shadow_split_ratio
   // or more, a shadow's edge crosses the ellipse and each class is a group with its own
@@ -138,117 +312,11 @@ std::vector<Eigen::Vector2d> edge_points(const cv::Mat& img, const cv::Point2f& 
   // a thin tilted annulus stays within that band). Nor are the profiles next to a change of
   // group, nor a group of fewer than kMinGroup profiles. Group levels: half-way between the
   // darkest and the brightest value of the group's profiles in use.
-  // group: 0 one illumination, 1 and 2 the two illuminations, -1 not used.
-  constexpr int kMinGroup = 4;
-  std::vector<int> group(n, 0);
-  double level_group[3] = {level, level, level};
-  double split_at = -1.0;
-  {
-    std::vector<double> lh;  // log of the brightest values, sorted
-    for (int k = 0; k < n; ++k) {
-      if (valid[k]) lh.push_back(std::log(std::max(phi[k], 1.0)));
-    }
-    std::sort(lh.begin(), lh.end());
-    const int nv = static_cast<int>(lh.size());
-    if (nv >= 2 * kMinGroup) {
-      const int best_i = otsu_split_sorted(lh).k;
-      const double med_lo = lh[best_i / 2], med_hi = lh[best_i + (nv - best_i) / 2];
-      if (best_i >= kMinGroup && nv - best_i >= kMinGroup &&
-          med_hi - med_lo >= std::log(p.shadow_split_ratio)) {
-        split_at = std::exp(0.5 * (lh[best_i - 1] + lh[best_i]));
-        // A band's two straight edges cut an ellipse in at most four points, so the classes
-        // alternate at most four times around it; more alternations are texture next to the
-        // edge (the code cells inside the central ring), not a shadow.
-        constexpr int kMaxShadowCrossings = 4;
-        int changes = 0, first = -1, prev = -1;
-        for (int k = 0; k < n; ++k) {
-          if (!valid[k]) continue;
-          const int cls = phi[k] < split_at ? 0 : 1;
-          if (first < 0) first = cls;
-          if (prev >= 0 && cls != prev) ++changes;
-          prev = cls;
-        }
-        if (prev >= 0 && prev != first) ++changes;
-        if (changes > kMaxShadowCrossings) split_at = -1.0;
-      }
-    }
-  }
+  const double split_at = shadow_split(ep, p);
   if (two_lights) *two_lights = split_at > 0;
-  if (split_light) {
-    if (split_at > 0) {
-      for (int k = 0; k < n; ++k) {
-        if (valid[k]) group[k] = phi[k] < split_at ? 2 : 1;
-      }
-      std::vector<int> g2 = group;
-      for (int k = 0; k < n; ++k) {
-        const int a = (k + n - 1) % n, b = (k + 1) % n;
-        if (valid[k] && ((valid[a] && group[a] != group[k]) || (valid[b] && group[b] != group[k]))) {
-          g2[k] = -1;
-        }
-      }
-      group.swap(g2);
-    }
-    auto median_sigma = [](std::vector<double> v, double& med, double& sig) {
-      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-      med = v[v.size() / 2];
-      for (double& x : v) x = std::abs(x - med);
-      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-      sig = 1.4826 * std::max(v[v.size() / 2], kMinNoiseGrey);
-    };
-    for (int gi : {0, 1, 2}) {
-      std::vector<double> los, his;
-      for (int k = 0; k < n; ++k) {
-        if (!valid[k] || group[k] != gi) continue;
-        los.push_back(plo[k]);
-        his.push_back(phi[k]);
-      }
-      if (los.empty()) continue;
-      double mlo, slo, mhi, shi;
-      median_sigma(los, mlo, slo);
-      median_sigma(his, mhi, shi);
-      double lo = 1e9, hi = -1e9;
-      int used = 0;
-      for (int k = 0; k < n; ++k) {
-        if (!valid[k] || group[k] != gi) continue;
-        if (std::abs(plo[k] - mlo) > 3 * slo || std::abs(phi[k] - mhi) > 3 * shi) {
-          group[k] = -1;
-          continue;
-        }
-        lo = std::min(lo, plo[k]);
-        hi = std::max(hi, phi[k]);
-        ++used;
-      }
-      if (used < kMinGroup) {
-        for (int k = 0; k < n; ++k) {
-          if (valid[k] && group[k] == gi) group[k] = -1;
-        }
-      } else {
-        level_group[gi] = 0.5 * (lo + hi);
-      }
-    }
-  }
-  for (int k = 0; k < n; ++k) {
-    if (!valid[k] || group[k] < 0) continue;
-    const double level = level_group[group[k]];
-    const double* pr = &prof[static_cast<std::size_t>(k) * m];
-    double best = 1e9;
-    for (int j = 0; j + 1 < m; ++j) {
-      const double d0 = pr[j] - level, d1 = pr[j + 1] - level;
-      if ((d0 < 0) == (d1 < 0) && d0 != 0) continue;
-      const double f = (d0 == d1) ? 0.5 : d0 / (d0 - d1);
-      const double s = -L + (j + f) * kProfileStepPx;
-      if (std::abs(s) < std::abs(best)) best = s;
-    }
-    if (std::abs(best) > L) continue;
-    const double th = 2.0 * M_PI * (k + 0.5) / n;
-    const double den = std::pow(e.a * e.a * std::sin(th) * std::sin(th) +
-                                    e.b * e.b * std::cos(th) * std::cos(th), 1.5);
-    const double kappa = e.a * e.b / den;
-    best += 0.5 * s2 * kappa;
-    pts.emplace_back(base[k].x() + best * normal[k].x() + off.x,
-                     base[k].y() + best * normal[k].y() + off.y);
-  }
-  return pts;
+  const ProfileGroups groups = illumination_groups(ep, split_at, split_light);
+  // Each profile's crossing of its group's level.
+  return level_crossings(ep, groups, off, e, s2);
 }
 
 // Refits after dropping points farther than max(floor, 4 x median) from the conic.
