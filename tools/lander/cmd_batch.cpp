@@ -14,6 +14,7 @@
 #include "lander/campaign/campaign.h"
 #include "lander/campaign/merge.h"
 #include "lander/campaign/runner.h"
+#include "lander/campaign/runner_lock.h"
 #include "lander/sim/util/output_files.h"
 #include "lander/sim/scenario.h"
 
@@ -58,6 +59,9 @@ int batch(const Args& args) {
   sim::write_file_atomic(file, YAML::Dump(c) + "\n");
   const campaign::Campaign camp = campaign::Campaign::load(file);
   const auto plan = campaign::make_plan(camp);
+  // One runner per directory, as for `lander campaign run` (campaign/runner_lock.h).
+  const campaign::RunnerLock lock = campaign::RunnerLock::acquire(o);
+  if (!lock.note().empty()) std::cerr << "lander batch: " << lock.note() << "\n";
   campaign::write_plan(camp, plan, o.out_dir);
   const campaign::RunnerResult r = campaign::run_campaign(camp, plan, o);
   if (r.interrupted) return 130;
