@@ -33,7 +33,7 @@ bool poses_agree(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const V
 // The P point c_P (on the top, z = 0) projected through the pinhole K (undistorted px).
 Eigen::Vector2d project(const Eigen::Matrix3d& K, const Eigen::Isometry3d& X_CP,
                         const Eigen::Vector2d& c_P);
-// 8-bit grey frame in which at least `region` of `img` is converted (see detector.cpp).
+// 8-bit grey frame in which at least `region` of `img` is converted (detect_passes.cpp).
 void grey_region(const cv::Mat& img, const cv::Rect& region, cv::Mat& grey);
 // The pixel rectangle covering [x0, x1] x [y0, y1] (outward to whole pixels), within `full`.
 cv::Rect covering_rect(double x0, double y0, double x1, double y1, const cv::Rect& full);
