@@ -13,7 +13,7 @@
 #include <fstream>
 #include <string>
 
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 
 namespace lander::fuzz {
 
