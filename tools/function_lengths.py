@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import ast
+import bisect
 import re
 import sys
 from dataclasses import dataclass
@@ -140,7 +141,8 @@ def cxx_functions(path: Path) -> list[Function]:
             header_start = i + 1
         elif c == "{":
             header = text[header_start:i]
-            if TRANSPARENT.search(header) and "(" not in header.split(TRANSPARENT.search(header).group(1))[0]:
+            scope = TRANSPARENT.search(header)
+            if scope and "(" not in header.split(scope.group(1))[0]:
                 scopes.append(True)
                 header_start = i + 1
             elif (name := function_name(header)) is not None:
@@ -184,8 +186,6 @@ def _matching_brace(text: str, i: int) -> int:
 
 def _line_index(text: str):
     starts = [0] + [m.end() for m in re.finditer("\n", text)]
-    import bisect
-
     return lambda pos: bisect.bisect_right(starts, pos)
 
 

@@ -56,7 +56,7 @@ std::optional<Transition> ApproachMode::loss_check(LandingContext& c, const Tick
   const LandingParams& L = c.p.landing;
   const double t_s = k.t_s;
   if (c.in_view(t_s, L.loss_timeout_s)) return std::nullopt;
-  const double loss_age = t_s - c.tracker.last_detection_t();
+  const double loss_age = c.loss_age_s(t_s);
   c.declare_loss(t_s);
   if (c.diag.gear_clearance_m < L.go_around_low_height_m) {
     return Transition{Mode::kGoAround,

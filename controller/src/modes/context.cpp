@@ -25,10 +25,6 @@ double skid_drop_m(const Eigen::Vector3d& n_B, const LandingParams& L) {
 LandingContext::LandingContext(const ControllerParams& params, const CameraMount& mount_in)
     : p(params), mount(mount_in), cascade(params.vehicle, params.cascade), tracker(params.tracker, mount_in) {}
 
-bool LandingContext::in_view(double t_s, double timeout_s) const {
-  return t_s - tracker.last_detection_t() <= timeout_s;
-}
-
 double LandingContext::platform_z() const {
   return tracker.has_fix() ? tracker.latest().p_W_m.z() : last_platform_z_;
 }

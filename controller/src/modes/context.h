@@ -78,8 +78,10 @@ class LandingContext {
   std::vector<Reacquisition> reacquisitions;
 
   // --- services ------------------------------------------------------------------------
+  // Time since the last detection of the target (s).
+  double loss_age_s(double t_s) const { return t_s - tracker.last_detection_t(); }
   // The target detected within timeout_s before t_s.
-  bool in_view(double t_s, double timeout_s) const;
+  bool in_view(double t_s, double timeout_s) const { return loss_age_s(t_s) <= timeout_s; }
   // Platform height of the last fix, even after the history was dropped; 0 (ground) before
   // the first.
   double platform_z() const;

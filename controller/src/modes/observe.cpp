@@ -45,8 +45,8 @@ ModeResult ObserveMode::update(LandingContext& c, const Tick& k) {
   const double t_s = k.t_s;
   if (!c.in_view(t_s, L.loss_timeout_s)) {
     c.declare_loss(t_s);
-    return ModeResult::go(Mode::kSearch, fmt::format("target lost for {:.2f} s while observing",
-                                                     t_s - c.tracker.last_detection_t()));
+    return ModeResult::go(Mode::kSearch,
+                          fmt::format("target lost for {:.2f} s while observing", c.loss_age_s(t_s)));
   }
   const bool close = L.approach_entry_max_error_m <= 0.0 || !c.tracker.has_fix() ||
                      c.diag.horizontal_error_m <= L.approach_entry_max_error_m;

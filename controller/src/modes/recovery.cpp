@@ -61,7 +61,7 @@ std::optional<Transition> RecoveryMode::exit_check(LandingContext& c, const Tick
   const LandingParams& L = c.p.landing;
   const double t_s = k.t_s;
   if (!c.in_view(t_s, L.recovery_loss_timeout_s)) {
-    const double loss_age = t_s - c.tracker.last_detection_t();
+    const double loss_age = c.loss_age_s(t_s);
     c.declare_loss(t_s);
     return Transition{Mode::kGoAround,
                       fmt::format("target lost for {:.2f} s in recovery at {:.2f} m above the platform", loss_age,

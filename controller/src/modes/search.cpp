@@ -84,9 +84,7 @@ void SearchMode::start(const LandingContext& c, double t_s) {
 }
 
 void SearchMode::enter(LandingContext& c, const Tick& k, Mode /*from*/, const std::string& /*reason*/) {
-  t0_s_ = k.t_s;
-  entry_t_s_ = k.t_s;
-  yaw0_rad_ = c.yaw_hold_rad;
+  start(c, k.t_s);
   // The history is kept: search flies to its prediction of the platform (see
   // search_predict_max_s) and a re-acquisition continues it.
   c.hold_p = k.nav.p_W_m;  // keep_min_height raises it in the search's first step
