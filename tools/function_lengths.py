@@ -141,7 +141,8 @@ def cxx_functions(path: Path) -> list[Function]:
             header_start = i + 1
         elif c == "{":
             header = text[header_start:i]
-            scope = TRANSPARENT.search(header)
+            # `template <class V>` before a function is not a class scope
+            scope = TRANSPARENT.search(re.sub(r"\btemplate\s*<[^{};]*>", " ", header))
             if scope and "(" not in header.split(scope.group(1))[0]:
                 scopes.append(True)
                 header_start = i + 1

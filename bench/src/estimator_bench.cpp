@@ -24,15 +24,13 @@ namespace lander::bench {
 using namespace lander::sim;  // output files, statistics
 
 void EstimatorBenchParams::validate() const {
+  check_fields(*this);
   require(!altitudes_m.empty(), "altitudes_m", "must not be empty");
   for (double a : altitudes_m) require(a > 0, "altitudes_m", "must be > 0");
   require(!tilts_deg.empty(), "tilts_deg", "must not be empty");
   for (double t : tilts_deg) require(t >= 0 && t < 85, "tilts_deg", "must be in [0, 85)");
   require(!blur_px.empty(), "blur_px", "must not be empty");
   for (double b : blur_px) require(b >= 0, "blur_px", "must be >= 0");
-  require(yaws_per_view >= 1, "yaws_per_view", "must be >= 1");
-  require(empty_frames >= 0, "empty_frames", "must be >= 0");
-  require(aim_jitter_m >= 0, "aim_jitter_m", "must be >= 0");
   for (int i : only_views) require(i >= 0, "only_views", "must be >= 0");
   require(!shadow_altitudes_m.empty(), "shadow_altitudes_m", "must not be empty");
   for (double a : shadow_altitudes_m) require(a > 0, "shadow_altitudes_m", "must be > 0");
@@ -44,9 +42,6 @@ void EstimatorBenchParams::validate() const {
   for (double w : shadow_widths_m) require(w > 0, "shadow_widths_m", "must be > 0");
   require(!shadow_lights.empty(), "shadow_lights", "must not be empty");
   for (double l : shadow_lights) require(l >= 0 && l < 1, "shadow_lights", "must be in [0, 1)");
-  require(shadow_views_per_pose >= 1, "shadow_views_per_pose", "must be >= 1");
-  require(shadow_max_offset_m >= 0, "shadow_max_offset_m", "must be >= 0");
-  require(shadow_empty_frames >= 0, "shadow_empty_frames", "must be >= 0");
 }
 
 // The band's signed coordinate s(q) = q . n - offset on the plane; a pixel's ray meets the

@@ -7,7 +7,7 @@
 #include <set>
 #include <sstream>
 
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 
 namespace lander::campaign {
 

@@ -11,7 +11,7 @@
 #include <fmt/format.h>
 
 #include "lander/campaign/stats.h"
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 #include "lander/sim/util/output_files.h"
 #include "lander/sim/util/process.h"
 #include "yaml_json.h"

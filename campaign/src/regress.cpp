@@ -12,7 +12,7 @@
 
 #include "lander/campaign/merge.h"
 #include "lander/campaign/stats.h"
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 #include "lander/sim/util/process.h"
 
 namespace lander::campaign {

@@ -12,7 +12,7 @@
 
 #include "lander/campaign/csv.h"
 #include "lander/campaign/regress.h"
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 #include "lander/sim/util/output_files.h"
 
 namespace lander::campaign {

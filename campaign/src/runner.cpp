@@ -19,7 +19,7 @@
 
 #include <fmt/format.h>
 
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 #include "lander/flight/flight_plugin.h"
 #include "lander/sim/util/output_files.h"
 #include "lander/sim/util/process.h"

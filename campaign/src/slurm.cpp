@@ -7,7 +7,7 @@
 
 #include "lander/campaign/merge.h"
 #include "lander/campaign/runner.h"
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 #include "lander/sim/util/output_files.h"
 #include "lander/sim/util/process.h"
 

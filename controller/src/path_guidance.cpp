@@ -5,27 +5,16 @@
 namespace lander::ctl {
 
 void PathGuidanceParams::validate() const {
+  check_fields(*this);
   require(guidance == "min_angle" || guidance == "pixel_distribution", "guidance",
           "must be min_angle or pixel_distribution (got '" + guidance + "')");
   require(projection == "ray" || projection == "constant_k", "projection",
           "must be ray or constant_k (got '" + projection + "')");
   require(r1_px >= 0 && r2_px > r1_px && r2_px <= 2000, "r2_px", "needs 0 <= r1_px < r2_px <= 2000");
   require(tie_rad >= 0 && tie_rad < M_PI / 4, "tie_deg", "must be in [0, 45) deg");
-  require(k_m_per_px > 0 && k_m_per_px < 1, "k_m_per_px", "must be in (0, 1) m/px");
-  require(height_m >= 1 && height_m <= 50, "height_m", "must be in [1, 50] m");
   require(std::isfinite(direction_rad), "direction_deg", "must be finite");
-  require(speed_mps > 0 && speed_mps <= 5, "speed_mps", "must be in (0, 5] m/s");
   require(min_speed_mps >= 0 && min_speed_mps < speed_mps, "min_speed_mps", "must be in [0, speed_mps)");
-  require(enter_frames >= 1, "enter_frames", "must be >= 1");
-  require(enter_min_points >= 1, "enter_min_points", "must be >= 1");
-  require(route_lost_s > 0, "route_lost_s", "must be > 0");
-  require(end_after_s > 0, "end_after_s", "must be > 0");
   require(max_turn_rad > 0 && max_turn_rad <= M_PI, "max_turn_deg", "must be in (0, 180] deg");
-  require(trail_radius_m >= 0, "trail_radius_m", "must be >= 0");
-  require(trail_skip_m >= 0, "trail_skip_m", "must be >= 0");
-  require(baseline_yaw_rate_degps > 0 && baseline_yaw_rate_degps <= 180, "baseline_yaw_rate_degps",
-          "must be in (0, 180]");
-  require(baseline_align_deg > 0 && baseline_align_deg < 90, "baseline_align_deg", "must be in (0, 90)");
 }
 
 std::optional<std::size_t> select_target(const std::vector<Eigen::Vector2d>& points_px,

@@ -5,14 +5,8 @@
 namespace lander {
 
 void SampleLimits::validate() const {
-  require(max_gyro_radps > 0, "max_gyro_radps", "must be > 0");
-  require(max_accel_mps2 > 0, "max_accel_mps2", "must be > 0");
-  require(min_pressure_pa > 0, "min_pressure_pa", "must be > 0");
+  check_fields(*this);
   require(max_pressure_pa > min_pressure_pa, "max_pressure_pa", "must be > min_pressure_pa");
-  require(max_gps_distance_m > 0, "max_gps_distance_m", "must be > 0");
-  require(max_gps_speed_mps > 0, "max_gps_speed_mps", "must be > 0");
-  require(max_mag_field_uT > 0, "max_mag_field_uT", "must be > 0");
-  require(max_vision_range_m > 0, "max_vision_range_m", "must be > 0");
 }
 
 bool plausible_observation(const PlatformObservation& obs, double max_range_m) {

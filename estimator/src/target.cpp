@@ -17,8 +17,7 @@ double RingSet::cross_ratio() const {
 }
 
 void RingSet::validate() const {
-  require(outer_radius_m > 0, "outer_radius_m", "must be > 0");
-  require(inner_radius_m > 0, "inner_radius_m", "must be > 0");
+  check_fields(*this);
   require(inner_radius_m < outer_radius_m, "inner_radius_m", "must be < outer_radius_m");
   for (int i = 0; i < 3; ++i) {
     require(colour_rgb[i] >= 0 && colour_rgb[i] <= 1, "colour_rgb", "components in [0, 1]");
@@ -26,9 +25,7 @@ void RingSet::validate() const {
 }
 
 void CodePatternParams::validate() const {
-  require(cells >= 0, "cells", "must be >= 0 (0 = no code pattern)");
-  require(cell_m > 0, "cell_m", "must be > 0");
-  require(window >= 2 && window <= 6, "window", "must be in [2, 6]");
+  check_fields(*this);
   require(cells == 0 || cells >= window, "cells", "must be >= window");
 }
 
@@ -40,9 +37,8 @@ const RingSet& TargetGeometry::ring(int id) const {
 }
 
 void TargetGeometry::validate() const {
+  check_fields(*this);
   require(platform_size_m.x() > 0 && platform_size_m.y() > 0, "platform_size_m", "must be > 0");
-  require(platform_thickness_m > 0, "platform_thickness_m", "must be > 0");
-  require(texture_px >= 256 && texture_px <= 8192, "texture_px", "must be in [256, 8192]");
   require(std::abs(platform_size_m.x() - platform_size_m.y()) < 1e-9, "platform_size_m",
           "the texture is square: x and y sizes must be equal");
   require(rings.size() >= 4, "ring_sets", "need at least 4 ring sets for a pose");

@@ -30,7 +30,7 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 #include "lander/flight/components.h"
 #include "lander/flight/flight_plugin.h"
 
@@ -58,34 +58,45 @@ struct Params {
   double climb_rate_mps{0.8};      ///< climb while searching or lost (m/s)
   double search_yaw_rate_degps{30.0};  ///< heading sweep while searching (deg/s)
   double fit_window_s{1.5};        ///< the platform's track: a line fitted to this much (s)
+  // Each field's range is in visit_fields (lander/core/field_spec.h); this checks it and the
+  // rules across fields.
   void validate() const {
-    lander::require(kp_per_s > 0 && kp_per_s < 10, "kp_per_s", "must be in (0, 10) 1/s");
-    lander::require(max_speed_mps > 0, "max_speed_mps", "must be > 0");
-    lander::require(descent_rate_mps > 0 && min_descent_mps > 0, "descent_rate_mps", "must be > 0");
-    lander::require(fit_window_s > 0.1, "fit_window_s", "must be > 0.1 s");
-    lander::require(lost_after_s > 0, "lost_after_s", "must be > 0");
+    lander::check_fields(*this);
+    lander::require(min_descent_mps <= descent_rate_mps, "min_descent_mps",
+                    "must be <= descent_rate_mps");
   }
 };
 
+// Key, field, allowed range, unit, description: the plugin's reference in one place.
 template <class V>
 void visit_fields(V& v, Params& p) {
-  v("kp_per_s", p.kp_per_s);
-  v("ki_per_s2", p.ki_per_s2);
-  v("max_integral_mps", p.max_integral_mps);
-  v("max_speed_mps", p.max_speed_mps);
-  v("descent_rate_mps", p.descent_rate_mps);
-  v("descent_per_m", p.descent_per_m);
-  v("min_descent_mps", p.min_descent_mps);
-  v("descend_gate_m", p.descend_gate_m);
-  v("descend_gate_per_m", p.descend_gate_per_m);
-  v("cut_clearance_m", p.cut_clearance_m);
-  v("cut_error_m", p.cut_error_m);
-  v("contact_clearance_m", p.contact_clearance_m);
-  v("lost_after_s", p.lost_after_s);
-  v("search_height_m", p.search_height_m);
-  v("climb_rate_mps", p.climb_rate_mps);
-  v("search_yaw_rate_degps", p.search_yaw_rate_degps);
-  v("fit_window_s", p.fit_window_s);
+  namespace range = lander::range;
+  v("kp_per_s", p.kp_per_s, range::open(0, 10), "1/s", "horizontal error -> velocity");
+  v("ki_per_s2", p.ki_per_s2, range::non_negative, "1/s^2", "its integral -> velocity");
+  v("max_integral_mps", p.max_integral_mps, range::non_negative, "m/s",
+    "the integral's share of the velocity at most");
+  v("max_speed_mps", p.max_speed_mps, range::positive, "m/s", "horizontal speed limit");
+  v("descent_rate_mps", p.descent_rate_mps, range::positive, "m/s", "descent speed high up");
+  v("descent_per_m", p.descent_per_m, range::non_negative, "1/s",
+    "descent speed per metre of height near the top");
+  v("min_descent_mps", p.min_descent_mps, range::positive, "m/s", "slowest descent");
+  v("descend_gate_m", p.descend_gate_m, range::positive, "m",
+    "horizontal error allowed for descending, at the top");
+  v("descend_gate_per_m", p.descend_gate_per_m, range::non_negative, "m/m",
+    "... plus this per metre of height");
+  v("cut_clearance_m", p.cut_clearance_m, range::non_negative, "m",
+    "cut when the gear is this close to the top");
+  v("cut_error_m", p.cut_error_m, range::positive, "m", "and the horizontal error below this");
+  v("contact_clearance_m", p.contact_clearance_m, range::non_negative, "m",
+    "the gear this close: on the top, cut whatever the error");
+  v("lost_after_s", p.lost_after_s, range::positive, "s",
+    "no fix for this long: the platform is lost");
+  v("search_height_m", p.search_height_m, range::positive, "m", "lowest height while searching");
+  v("climb_rate_mps", p.climb_rate_mps, range::positive, "m/s", "climb while searching or lost");
+  v("search_yaw_rate_degps", p.search_yaw_rate_degps, range::non_negative, "deg/s",
+    "heading sweep while searching");
+  v("fit_window_s", p.fit_window_s, range::greater_than(0.1), "s",
+    "the platform's track: a line fitted to this much");
 }
 
 // The platform as the logic tracks it: a straight line (position, velocity) fitted by least

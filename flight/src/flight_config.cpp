@@ -1,5 +1,7 @@
 #include "lander/flight/flight_config.h"
 
+#include "lander/core/annotated_yaml.h"
+
 #include <cmath>
 #include <filesystem>
 
@@ -57,6 +59,25 @@ std::string resolve_plugin_path(const std::string& plugin, const std::string& na
   namespace fs = std::filesystem;
   if (plugin.empty() || fs::path(plugin).is_absolute()) return plugin;
   return fs::absolute(fs::path(naming_file).parent_path() / plugin).lexically_normal().string();
+}
+
+std::string flight_defaults_yaml() {
+  FlightConfig c;
+  c.validate();
+  const std::vector<std::string> header = {
+      "The flight software's own configuration: its nominal values (what it believes about the",
+      "vehicle, the camera, the target and the world). Not the simulator's truth: the scenario's",
+      "plant keys (vehicle.model, camera, cart.platform_height_m, sensors, world) describe the",
+      "world as it is, and a scenario overrides these beliefs only in its `flight:` section or by",
+      "naming another file with `flight.file`. Layout: flight/include/lander/flight/flight_config.h.",
+      "The target geometry is models/target.yaml unless `target:` names another file (relative to",
+      "this file's folder).",
+      "",
+      "GENERATED from the in-class defaults: `build/lander flight-config --defaults >",
+      "models/flight.yaml` (tests/flight fails when this file differs). Each key's comment is what",
+      "its visit_fields says of it: description (unit; allowed range).",
+  };
+  return annotated_params_yaml(c, header, {"file", "target", "plugin", "python", "plugin_config"});
 }
 
 }  // namespace lander::flight

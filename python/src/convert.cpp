@@ -4,7 +4,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 
 namespace lander::py {
 

@@ -7,7 +7,7 @@
 #include <set>
 
 #include "lander/campaign/campaign.h"
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 #include "lander/sim/scenario.h"
 
 namespace lander::campaign {

@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 
 namespace lander::campaign {
 namespace {

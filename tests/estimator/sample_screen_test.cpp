@@ -1,7 +1,7 @@
 // The flight software's sample screen and its filters never throw on a bad sample: NaN and
 // absurd IMU / barometer / GPS / ultrasonic / magnetometer samples and vision results are
 // rejected and counted; the IMU is held at its last good sample.
-#include "lander/estimator/sample_screen.h"
+#include "lander/core/sample_screen.h"
 
 #include <gtest/gtest.h>
 

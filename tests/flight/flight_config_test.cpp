@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <sstream>
 
 #include <gtest/gtest.h>
 
@@ -27,6 +28,15 @@ std::string write_temp(const std::string& name, const std::string& text) {
 // models/flight.yaml holds the nominal values: exactly the in-class defaults, so that a
 // default changed in one place and not the other is caught. On failure the expected file
 // content is `lander flight-config --defaults`.
+TEST(FlightConfig, ModelsFileIsTheGeneratedDefaults) {
+  std::ifstream in(default_flight_file());
+  ASSERT_TRUE(in) << default_flight_file();
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_EQ(text.str(), flight_defaults_yaml())
+      << "regenerate: build/lander flight-config --defaults > models/flight.yaml";
+}
+
 TEST(FlightConfig, ModelsFileEqualsInClassDefaults) {
   const FlightConfig loaded = FlightConfig::load(default_flight_file());
   EXPECT_EQ(yaml_of(loaded), yaml_of(FlightConfig{}));

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <fstream>
 #include <set>
+#include <sstream>
 
 #include "lander/sim/plant/cart_motion.h"
 #include "lander/sim/scenario.h"
@@ -201,6 +202,14 @@ struct Collector {
   void operator()(const char* k, Eigen::Vector2d&, double = 1.0) { add(k, false); }
   void operator()(const char* k, Eigen::Vector3d&, double = 1.0) { add(k, false); }
   void operator()(const char* k, YAML::Node&) { add(k, false); }
+  template <class T>
+  void operator()(const char* k, T& field, const Range&, const char*, const char*) {
+    (*this)(k, field);
+  }
+  template <class T>
+  void operator()(const char* k, T& field, const Range&, const char*, const char*, double s) {
+    (*this)(k, field, s);
+  }
   template <class P>
   void nested(const char* k, P& sub) {
     all->insert(prefix + k);
@@ -249,6 +258,72 @@ TEST(ScenarioConfigErrors, EveryValidationErrorNamesARealKey) {
     }
   }
   EXPECT_GT(errors, 200);  // the sweep did reach the checks
+}
+
+// "a.b.c" set to `value` as a scenario file's text.
+std::string yaml_setting(const std::string& path, const std::string& value) {
+  std::string yaml, indent;
+  std::size_t start = 0, dot;
+  while ((dot = path.find('.', start)) != std::string::npos) {
+    yaml += indent + path.substr(start, dot - start) + ":\n";
+    indent += "  ";
+    start = dot + 1;
+  }
+  return yaml + indent + path.substr(start) + ": " + value + "\n";
+}
+
+// A value just outside a bounded range: the open end itself, else one past the closed end.
+double outside(const Range& r) {
+  if (r.lo != -range::kInf) return r.lo_open ? r.lo : r.lo - 1;
+  return r.hi_open ? r.hi : r.hi + 1;
+}
+
+// Every range a visitor gives (field_spec.h) is enforced: each bounded key of the scenario
+// tree (the flight configuration included; list items apart), set just outside its range,
+// is refused by the loader with that key, its line and exactly the visitor's message. A
+// validate() that forgot check_fields(*this) fails here.
+TEST(ScenarioConfigErrors, EveryRangeInTheVisitorsIsEnforcedWithItsKey) {
+  Scenario defaults = Scenario::defaults();
+  std::vector<FieldInfo> fields;
+  FieldLister lister(&fields);
+  visit_fields(lister, defaults);
+  const YAML::Node resolved = params_to_yaml(defaults);
+  int bounded = 0;
+  for (const FieldInfo& f : fields) {
+    if (!f.range.bounded() || f.key.find("[]") != std::string::npos) continue;
+    ++bounded;
+    const double x = outside(f.range);
+    std::ostringstream value;
+    value.precision(17);
+    if (f.type == "vector") {
+      YAML::Node d = resolved;
+      std::size_t dot;
+      std::string rest = f.key;
+      while ((dot = rest.find('.')) != std::string::npos) {
+        d.reset(d[rest.substr(0, dot)]);
+        rest = rest.substr(dot + 1);
+      }
+      const std::size_t n = d[rest].size();
+      ASSERT_GT(n, 0u) << f.key << ": an empty default list cannot be probed";
+      value << "[";
+      for (std::size_t i = 0; i < n; ++i) value << (i ? ", " : "") << x;
+      value << "]";
+    } else {
+      value << x;
+    }
+    Scenario s = defaults;
+    try {
+      read_params(YAML::Load(yaml_setting(f.key, value.str())), "x.yaml", s);
+      ADD_FAILURE() << f.key << " = " << value.str() << " accepted (" << f.allowed << ")";
+    } catch (const ConfigError& e) {
+      EXPECT_EQ(e.key(), f.key) << e.what();
+      EXPECT_EQ(e.problem(), (f.type == "vector" ? "all entries " : "") + f.allowed) << e.what();
+      EXPECT_EQ(std::string(e.what()).rfind("x.yaml:", 0), 0u) << e.what();
+    }
+  }
+  // 308 ranges came out of the validate() bodies (the count when they moved; a floor that
+  // notices a visitor losing its ranges wholesale; list items are not counted)
+  EXPECT_GE(bounded, 280);
 }
 
 TEST(ScenarioConfigErrors, DuplicateKeysAreRejectedWithTheirLine) {

@@ -18,7 +18,7 @@
 #include "common/json_checks.h"
 #include "lander/estimator/target.h"
 #include "tools/support/cli.h"
-#include "lander/estimator/types.h"
+#include "lander/core/types.h"
 #include "lander/estimator/vision_conic.h"
 #include "lander/estimator/vision_params.h"
 

@@ -17,7 +17,9 @@ having no comment, never guessed.
 import os
 import re
 
-VISIT_RE = re.compile(r"void\s+visit_fields\s*\(\s*V\s*&\s*v\s*,\s*([\w:]+)\s*&\s*p\s*\)\s*\{")
+# visit_fields, and the parts a long one is split into (visit_<part>_fields, defined before it in
+# the order visit_fields calls them): their calls are the struct's keys in file order.
+VISIT_RE = re.compile(r"void\s+visit_(?:\w+_)?fields\s*\(\s*V\s*&\s*v\s*,\s*([\w:]+)\s*&\s*p\s*\)\s*\{")
 CALL_RE = re.compile(r'\bv(\.nested|\.list)?\(\s*"([^"]+)"\s*,\s*p\.([\w.]+)\s*(?:,\s*([^)]*))?\)')
 STRUCT_RE = re.compile(r"^\s*struct\s+(\w+)\s*(?:final\s*)?(?::[^{]*)?\{")
 
@@ -179,7 +181,13 @@ def parse_tree(repo, dirs=("core", "estimator", "controller", "flight", "sim", "
                 for k, s in ss.items():
                     if k not in structs:
                         structs[k] = s
+                merged = {}
                 for name, calls, line in vs:
+                    if name in merged:
+                        merged[name][0].extend(calls)
+                    else:
+                        merged[name] = (list(calls), line)
+                for name, (calls, line) in merged.items():
                     if name in structs and not structs[name].visits:
                         structs[name].visits = calls
                         structs[name].visit_line = (rel, line)

@@ -212,6 +212,13 @@ class Lander:
         a["faults"]["diverge_t_s"] = b["faults"]["diverge_t_s"]
         return a
 
+    def visitor_keys(self):
+        """{key: {type, unit, allowed, doc}} as the visitors give them (`lander docs keys`)."""
+        r = run([self.exe, "docs", "keys"], PROBE_TIMEOUT_S, env=self.env)
+        if r.returncode != 0:
+            raise GenError("lander docs keys failed (exit %d): %s" % (r.returncode, r.stderr[-2000:]))
+        return {k["key"]: k for k in json.loads(r.stdout)}
+
     def flight_defaults(self):
         r = run([self.exe, "flight-config", "--defaults"], PROBE_TIMEOUT_S, env=self.env)
         if r.returncode != 0:
@@ -311,17 +318,18 @@ test fails when this page differs from what the code gives):
 
 - **key** and **default**: `scenario.resolved.yaml` as `lander run` writes it for a scenario
   that sets nothing but a test hook{flight_note}; paths are shown relative to the repository;
-- **unit**: the key's suffix (`_m`, `_s`, `_mps`, `_deg`, `_hz`, `_px`, ...; a YAML key names
-  its unit where it is not SI, e.g. `exposure_ms`), else the unit in parentheses closing the
-  short first clause of the field's comment (marked *comment*; never for a ratio's key);
-  empty for counts, flags, gains and ratios without one;
+- **unit**: the unit the key's `visit_fields` call gives (`v("mass_kg", p.mass_kg,
+  range::positive, "kg", "total mass")`, core/include/lander/core/field_spec.h; `lander docs
+  keys` lists them), of the value as written in YAML (`exposure_ms` is in ms); empty for
+  counts, flags, gains and ratios;
 - **allowed**: the validation message the scenario loader gives (`lander docs probe`, as
   `lander run` would load the file) with the key set to -1e9 and to 1e9 (the second is left
   out when the first message states both bounds; a string key: a nonsense word), quoted;
-  "not checked" when the code accepts both;
-- **meaning**: the field's `///<` comment in the header (else the comment block above it),
-  cut to its first {limit} characters; each section names the struct and the header that
-  declares it.
+  "not checked" when the code accepts both (for a list's items: the range their visitor
+  gives);
+- **meaning**: the description the `visit_fields` call gives; where the field's `///<`
+  comment in the header (else the comment block above it) says more, that comment instead
+  when it begins with the description, else both; cut to {limit} characters; each section names the struct and the header that declares it.
 """
 
 
@@ -333,24 +341,44 @@ def key_table(rows):
     return "\n".join(out)
 
 
-def section_rows(leaves, docs, probes, defaults_note=None):
+def meaning_of(spec, comment):
+    """The visitor's description, then the header's comment where it says more."""
+    desc = (spec or {}).get("doc", "")
+    if not desc:
+        return one_line(comment)
+    flat = re.sub(r"\s+", " ", comment or "").strip()
+    if len(flat) <= len(desc) + 30:
+        return desc
+    # the description is usually the comment's first clause: then the comment says it all
+    if flat.lower().startswith(desc.lower()):
+        return one_line(comment)
+    return desc + " &mdash; " + one_line(comment)
+
+
+def unit_from(key, spec, comment):
+    """The visitor's unit; for a key no visitor describes, the suffix or comment heuristic."""
+    if spec is not None:
+        return spec["unit"]
+    unit, how = unit_of(key, comment)
+    return unit + " *(comment)*" if how == "comment" else unit
+
+
+def section_rows(leaves, docs, probes, specs, defaults_note=None):
     rows = []
     for key, value in leaves:
         kd = docs.get(key)
         doc, where = doc_of(kd)
-        unit, how = unit_of(key, doc)
-        if how == "comment":
-            unit += " *(comment)*"
+        unit = unit_from(key, specs.get(key), doc)
         default = fmt_value(value)
         if defaults_note and key in defaults_note:
             default += " " + defaults_note[key]
         allowed = "true or false" if isinstance(value, bool) else describe_range(key, probes.get(key, []))
         rows.append({"key": key, "unit": unit, "default": default, "allowed": allowed,
-                     "meaning": one_line(doc), "where": where})
+                     "meaning": meaning_of(specs.get(key), doc), "where": where})
     return rows
 
 
-def list_item_rows(docs, list_prefix, probes_note="not probed (list item)"):
+def list_item_rows(docs, list_prefix, specs, probes_note="not probed (list item)"):
     rows = []
     for path, kd in docs.items():
         if not path.startswith(list_prefix + "[]."):
@@ -358,13 +386,13 @@ def list_item_rows(docs, list_prefix, probes_note="not probed (list item)"):
         if kd.kind != "value":
             continue
         doc, where = doc_of(kd)
-        unit, how = unit_of(path, doc)
-        if how == "comment":
-            unit += " *(comment)*"
+        spec = specs.get(path)
+        unit = unit_from(path, spec, doc)
         init = kd.field.init if kd.field is not None else ""
         init = re.sub(r"^[{=]\s*|\s*}$", "", init or "")
+        allowed = (spec or {}).get("allowed") or probes_note
         rows.append({"key": path, "unit": unit, "default": ("in-class: " + init) if init else "",
-                     "allowed": probes_note, "meaning": one_line(doc), "where": where})
+                     "allowed": allowed, "meaning": meaning_of(spec, doc), "where": where})
     return rows
 
 
@@ -684,6 +712,7 @@ def generate(lander_exe, repo, out):
         lander = Lander(os.path.abspath(lander_exe), repo, tmp)
         scen = lander.resolved_defaults()
         flight_in_class = lander.flight_defaults()
+        specs = lander.visitor_keys()
         leaves = flatten(scen)
         # probes
         # First pass: every key at its first probe value (-1e9, a nonsense word); second pass:
@@ -700,9 +729,9 @@ def generate(lander_exe, repo, out):
         sdocs = key_docs(structs, "Scenario", "")
         # scenario page: everything but flight
         plant = [(k, v) for k, v in leaves if not k.startswith("flight.")]
-        rows = section_rows(plant, sdocs, probes)
+        rows = section_rows(plant, sdocs, probes, specs)
         for lst in sorted({k for k, v in plant if isinstance(v, list) and (k + "[]") in sdocs}):
-            items = list_item_rows(sdocs, lst)
+            items = list_item_rows(sdocs, lst, specs)
             idx = max(i for i, r in enumerate(rows) if r["key"] == lst)
             rows[idx + 1:idx + 1] = items
         missing = [k for k, _ in leaves if k not in sdocs and k + "[]" not in sdocs]
@@ -727,7 +756,7 @@ def generate(lander_exe, repo, out):
         extra = sorted(set("flight." + k for k in fin) - set(k for k, _ in fl))
         if extra:
             raise GenError("flight-config --defaults has keys the scenario does not: %s" % extra[:10])
-        frows = section_rows(fl, sdocs, probes, note)
+        frows = section_rows(fl, sdocs, probes, specs, note)
         fintro = ("Every key of the flight configuration: what the flight software believes. "
                   "`models/flight.yaml` holds the nominal values, a scenario overrides them under "
                   "`flight:` (so the key `camera.k1` here is `flight.camera.k1` in a scenario), "

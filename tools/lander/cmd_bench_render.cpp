@@ -304,6 +304,8 @@ json report(const Bench& b, const PlainTimes& t, const std::vector<double>& blur
   j["distortion"] = distortion;
   j["ms_per_frame_blur8_median"] = sim::summarize(blur).median;
   j["backend"] = b.renderer.backend_description();
+  j["egl_devices"] = b.renderer.backend_devices();
+  j["device_used"] = b.renderer.backend_device_used();
   j["frames"] = b.n;
   j["width_px"] = b.W;
   j["height_px"] = b.H;
@@ -348,6 +350,12 @@ int bench_render(const Args& args) {
   const json j = report(b, t, blur, distortion, noise_ms, adaptive);
   sim::write_json_file(a.value("json"), j);
   std::cout << sim::json_text(j);
+  // Which GL device rendered these figures (a hardware EGL device, when one is present, is
+  // preferred to Mesa's llvmpipe).
+  std::cerr << "bench render: device: " << b.renderer.backend_device_used() << "; "
+            << b.renderer.backend_description() << "; EGL devices seen: "
+            << (b.renderer.backend_devices().empty() ? "none" : "") << "\n";
+  for (const std::string& d : b.renderer.backend_devices()) std::cerr << "  " << d << "\n";
   return kExitOk;
 }
 

@@ -10,7 +10,7 @@
 
 #include <filesystem>
 
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 #include <iostream>
 #include <sstream>
 #include <thread>

@@ -2,7 +2,8 @@
 // for tools/docs/gen_reference.py, which generates docs/reference/ (the allowed range of
 // every key) from it. `lander docs transitions`: the landing mode machine's transition table
 // (ctl::mode_transitions(), the one the machine enforces) as JSON, for the reference page and
-// the diagram (tools/docs/mode_diagram.py).
+// the diagram (tools/docs/mode_diagram.py). `lander docs keys`: every key's unit, range and
+// description as its visitor gives them (core/include/lander/core/field_spec.h).
 //
 // PROBES.yaml is a list of {key: DOTTED.KEY, value: VALUE}. For each item, in order, a scenario
 // that sets only that key to that value is loaded exactly as `lander run` and
@@ -94,17 +95,40 @@ int transitions(const Args& rest) {
   return kExitOk;
 }
 
-constexpr const char* kDocsUsage = "usage: lander docs probe PROBES.yaml | lander docs transitions";
+// Every key of the scenario tree (the flight configuration under flight.) with what its
+// visitor says of it (field_spec.h): [{key, type, unit, allowed, doc}, ...] in visit order,
+// list items as "key[].item".
+int keys(const Args& rest) {
+  ArgParser a(rest, {}, {});
+  if (!a.positional().empty()) throw UsageError("usage: lander docs keys");
+  sim::Scenario defaults = sim::Scenario::defaults();
+  std::vector<FieldInfo> fields;
+  FieldLister lister(&fields);
+  visit_fields(lister, defaults);
+  nlohmann::ordered_json out = nlohmann::ordered_json::array();
+  for (const FieldInfo& f : fields) {
+    out.push_back({{"key", f.key}, {"type", f.type}, {"unit", f.unit}, {"allowed", f.allowed},
+                   {"doc", f.doc}});
+  }
+  std::cout << out.dump(2) << "\n";
+  return kExitOk;
+}
+
+constexpr const char* kDocsUsage =
+    "usage: lander docs probe PROBES.yaml | lander docs keys | lander docs transitions";
 
 int docs(const Args& args) {
   if (args.empty()) throw UsageError(kDocsUsage);
   if (args[0] == "probe") return probe(Args(args.begin() + 1, args.end()));
   if (args[0] == "transitions") return transitions(Args(args.begin() + 1, args.end()));
+  if (args[0] == "keys") return keys(Args(args.begin() + 1, args.end()));
   throw UsageError(kDocsUsage);
 }
 
 const LanderCommand reg("docs",
                         "docs probe PROBES.yaml: validate one key at a time as a scenario would; "
+                        "docs keys: every configuration key with its unit, range and "
+                        "description as JSON; "
                         "docs transitions: the mode machine's transition table as JSON "
                         "(for tools/docs/gen_reference.py)",
                         Kind::Command, docs);

@@ -10,7 +10,7 @@
 #include <sstream>
 
 #include "command.h"
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 
 namespace lander::cli {
 

@@ -30,37 +30,12 @@ double vertical_accel_W(const ImuSample& imu, const Eigen::Quaterniond& q_WB,
 
 // ------------------------------------------------------------------------------ params
 void AltitudeFusionParams::validate() const {
-  require(baro_std_m > 0, "baro_std_m", "must be > 0");
-  require(gps_std_m > 0, "gps_std_m", "must be > 0");
-  require(gps_corr_time_s > 0, "gps_corr_time_s", "must be > 0");
-  require(gps_white_std_m > 0, "gps_white_std_m", "must be > 0");
-  require(ultrasonic_std_m > 0, "ultrasonic_std_m", "must be > 0");
-  require(vision_std_m > 0, "vision_std_m", "must be > 0");
-  require(accel_noise_mps2 > 0, "accel_noise_mps2", "must be > 0");
-  require(accel_bias_rw_mps3 >= 0, "accel_bias_rw_mps3", "must be >= 0");
-  require(baro_bias_rw_mps >= 0, "baro_bias_rw_mps", "must be >= 0");
-  require(surface_rw_mps >= 0, "surface_rw_mps", "must be >= 0");
-  require(platform_rw_mps >= 0, "platform_rw_mps", "must be >= 0");
-  require(initial_baro_bias_std_m > 0, "initial_baro_bias_std_m", "must be > 0");
-  require(initial_accel_bias_std_mps2 > 0, "initial_accel_bias_std_mps2", "must be > 0");
-  require(platform_height_std_m > 0, "platform_height_std_m", "must be > 0");
-  require(switch_height_m > 0, "switch_height_m", "must be > 0");
+  check_fields(*this);
   require(switch_hysteresis_m >= 0 && switch_hysteresis_m < switch_height_m,
           "switch_hysteresis_m", "must be in [0, switch_height_m)");
-  require(ultrasonic_min_m >= 0, "ultrasonic_min_m", "must be >= 0");
   require(ultrasonic_max_m > ultrasonic_min_m, "ultrasonic_max_m", "must be > ultrasonic_min_m");
-  require(gate_sigma > 0, "gate_sigma", "must be > 0");
-  require(gate_factor_n >= 0 && gate_factor_n <= 1, "gate_factor_n", "must be in [0, 1] (eq. 27)");
   require(reject_sigma > gate_sigma, "reject_sigma", "must be > gate_sigma");
-  require(reject_limit >= 0, "reject_limit", "must be >= 0");
-  require(step_min_m > 0, "step_min_m", "must be > 0");
-  require(step_count >= 1 && step_count <= 8, "step_count", "must be in 1..8");
-  require(step_agree_m > 0, "step_agree_m", "must be > 0");
-  require(height_reset_count >= 0, "height_reset_count", "must be >= 0");
-  require(clearance_count >= 0, "clearance_count", "must be >= 0");
-  require(baro_fallback_s >= 0, "baro_fallback_s", "must be >= 0");
   require(surface_step_max_m > step_min_m, "surface_step_max_m", "must be > step_min_m");
-  require(max_sample_age_s > 0, "max_sample_age_ms", "must be > 0");
 }
 
 // ------------------------------------------------------------------------------ filter

@@ -65,28 +65,11 @@ void gated_scalar_update(const NavigationParams& p, const Eigen::RowVector3d& H,
 }  // namespace
 
 void NavigationParams::validate() const {
-  require(gravity_mps2 > 0, "gravity_mps2", "must be > 0");
-  require(mahony_kp >= 0, "mahony_kp", "must be >= 0");
-  require(mahony_ki >= 0, "mahony_ki", "must be >= 0");
-  require(accel_gate_frac > 0 && accel_gate_frac < 1, "accel_gate_frac", "must be in (0, 1)");
-  require(gyro_bias_limit_radps > 0, "gyro_bias_limit_radps", "must be > 0");
+  check_fields(*this);
   require(mag_field_W_uT.head<2>().norm() > 1.0, "mag_field_W_uT", "needs a horizontal component");
-  require(mag_k_yaw >= 0, "mag_k_yaw", "must be >= 0");
-  require(accel_lowpass_s > 0, "accel_lowpass_s", "must be > 0");
-  require(mahony_k_yaw >= 0, "mahony_k_yaw", "must be >= 0");
-  require(yaw_min_accel_mps2 > 0, "yaw_min_accel_mps2", "must be > 0");
   require(gps_loss_gyro_only_s >= 0 && std::isfinite(gps_loss_gyro_only_s),
           "gps_loss_gyro_only_s", "must be >= 0 and finite");
   require(std::isfinite(initial_yaw_rad), "initial_yaw_deg", "must be finite");
-  require(accel_noise_mps2 > 0, "accel_noise_mps2", "must be > 0");
-  require(accel_bias_rw_mps3 >= 0, "accel_bias_rw_mps3", "must be >= 0");
-  require(initial_accel_bias_std_mps2 > 0, "initial_accel_bias_std_mps2", "must be > 0");
-  require(gps_horizontal_std_m > 0, "gps_horizontal_std_m", "must be > 0");
-  require(gps_vertical_std_m > 0, "gps_vertical_std_m", "must be > 0");
-  require(gps_velocity_std_mps > 0, "gps_velocity_std_mps", "must be > 0");
-  require(gate_sigma > 0, "gate_sigma", "must be > 0");
-  require(gate_factor_n >= 0 && gate_factor_n <= 1, "gate_factor_n", "must be in [0, 1]");
-  require(max_sample_age_s > 0, "max_sample_age_ms", "must be > 0");
 }
 
 Navigation::Navigation(const NavigationParams& p) : p_(p) {

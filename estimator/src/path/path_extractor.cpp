@@ -15,7 +15,7 @@
 namespace lander {
 
 void PathExtractorParams::validate() const {
-  require(work_width_px >= 32 && work_width_px <= 8192, "work_width_px", "must be in [32, 8192]");
+  check_fields(*this);
   const auto channel = [](int v, const char* key) {
     require(v >= 0 && v <= 255, key, "must be in [0, 255]");
   };
@@ -28,14 +28,9 @@ void PathExtractorParams::validate() const {
   require(r_min <= r_max, "r_min", "must be <= r_max");
   require(g_min <= g_max, "g_min", "must be <= g_max");
   require(b_min <= b_max, "b_min", "must be <= b_max");
-  require(min_dominance >= 0 && min_dominance < 255, "min_dominance", "must be in [0, 255)");
   require(erode_px >= 1 && erode_px <= 15 && erode_px % 2 == 1, "erode_px",
           "must be odd and in [1, 15]");
-  require(grid_cols >= 1 && grid_cols <= 100, "grid_cols", "must be in [1, 100]");
-  require(grid_rows >= 1 && grid_rows <= 100, "grid_rows", "must be in [1, 100]");
   require(grid_cols <= work_width_px, "grid_cols", "must be <= work_width_px");
-  require(min_cell_pixels >= 1, "min_cell_pixels", "must be >= 1");
-  require(min_component_px >= 0, "min_component_px", "must be >= 0");
 }
 
 PathExtractor::PathExtractor(const CameraModel& calibration, const PathExtractorParams& params)

@@ -12,7 +12,7 @@
 #include <opencv2/core.hpp>
 
 #include "lander/estimator/target.h"
-#include "lander/estimator/types.h"
+#include "lander/core/types.h"
 #include "lander/estimator/vision_conic.h"
 #include "lander/estimator/vision_params.h"
 

@@ -11,8 +11,8 @@
 #include <string>
 #include <thread>
 
-#include "lander/estimator/state.h"
-#include "lander/estimator/types.h"
+#include "lander/core/state.h"
+#include "lander/core/types.h"
 #include "lander/sim/scenario.h"
 
 namespace lander::sim {

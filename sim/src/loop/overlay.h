@@ -11,7 +11,7 @@
 #include <mujoco/mujoco.h>
 #include <opencv2/imgproc.hpp>
 
-#include "lander/estimator/types.h"
+#include "lander/core/types.h"
 #include "lander/sim/scenario.h"
 #include "lander/sim/plant/world.h"
 

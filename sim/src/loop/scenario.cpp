@@ -20,7 +20,7 @@ void VehicleSetup::validate() const {
 }
 
 void Scenario::validate() const {
-  require(duration_s > 0 && duration_s <= 3600, "duration_s", "must be in (0, 3600] s");
+  check_fields(*this);
   require(expect_outcome == "landed" || expect_outcome == "route_end", "expect_outcome",
           "must be landed or route_end (got '" + expect_outcome + "')");
   validate_nested("world", world);
@@ -34,7 +34,6 @@ void Scenario::validate() const {
   validate_nested("flight", flight);
   validate_nested("faults", faults);
   validate_nested("video", video);
-  require(trace_rate_hz > 0 && trace_rate_hz <= 1000, "trace_rate_hz", "must be in (0, 1000]");
   require(cart.path != "route" || world.route.present(), "cart.path",
           "'route' needs a route: world.route.waypoints is empty");
   if (cart.path == "route") {

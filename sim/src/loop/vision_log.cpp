@@ -8,7 +8,7 @@
 
 #include <fmt/format.h>
 
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 #include "lander/sim/util/output_files.h"
 
 namespace lander::sim {

@@ -6,20 +6,13 @@
 namespace lander::sim {
 
 void CartMotionParams::validate() const {
+  check_fields(*this);
   require(path == "static" || path == "straight" || path == "arc" || path == "route", "path",
           "must be static, straight, arc or route (got '" + path + "')");
-  require(route_start_m >= 0, "route_start_m", "must be >= 0");
   require(speed_profile == "constant" || speed_profile == "stop_and_go", "speed_profile",
           "must be constant or stop_and_go (got '" + speed_profile + "')");
-  require(speed_mps >= 0 && speed_mps <= 5, "speed_mps", "must be in [0, 5]");
-  require(platform_height_m >= 0.4 && platform_height_m <= 2.0, "platform_height_m",
-          "must be in [0.4, 2.0] m (the platform sits on the cart's posts)");
   require(path != "arc" || std::abs(turn_radius_m) >= 2, "turn_radius_m",
           "|radius| must be >= 2 m");
-  require(accel_mps2 > 0 && accel_mps2 <= 5, "accel_mps2", "must be in (0, 5]");
-  require(go_s >= 0, "go_s", "must be >= 0");
-  require(stop_s >= 0, "stop_s", "must be >= 0");
-  require(start_delay_s >= 0, "start_delay_s", "must be >= 0");
 }
 
 namespace {

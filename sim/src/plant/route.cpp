@@ -12,9 +12,8 @@ Eigen::Vector2d unit_at(double phi) { return {std::cos(phi), std::sin(phi)}; }
 }  // namespace
 
 void RouteParams::validate() const {
-  require(width_m >= 0.02 && width_m <= 2.0, "width_m", "must be in [0.02, 2] m");
+  check_fields(*this);
   require(rgb.minCoeff() >= 0 && rgb.maxCoeff() <= 1, "rgb", "must be in [0, 1]");
-  require(corner_radius_m >= 0 && corner_radius_m <= 50, "corner_radius_m", "must be in [0, 50] m");
   for (std::size_t i = 0; i < gaps.size(); ++i) validate_item("gaps", i, gaps[i]);
   for (std::size_t i = 0; i < paint.size(); ++i) validate_item("paint", i, paint[i]);
   if (waypoints.empty()) return;

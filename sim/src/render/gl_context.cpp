@@ -47,6 +47,10 @@ struct GlContext::Impl {
   GlBackend backend = GlBackend::Auto;
   std::string renderer;
   std::string platform;  // EGL: "device" (a GPU) or "surfaceless" (Mesa)
+  // EGL: every device eglQueryDevicesEXT listed ("0: hardware /dev/dri/renderD128",
+  // "1: software (EGL_MESA_device_software)") and the one the context is on.
+  std::vector<std::string> devices;
+  std::string device_used;
   void* lib = nullptr;
   // EGL
   EGLDisplay display = EGL_NO_DISPLAY;
@@ -101,13 +105,22 @@ std::string GlContext::Impl::try_egl() {
     EGLDeviceEXT devices[16];
     EGLint n_devices = 0;
     if (queryDevices(16, devices, &n_devices)) {
-      for (EGLint i = 0; i < n_devices && display == EGL_NO_DISPLAY; ++i) {
+      for (EGLint i = 0; i < n_devices; ++i) {
         const char* ext = queryDeviceString(devices[i], EGL_EXTENSIONS);
-        if (ext && std::strstr(ext, "EGL_MESA_device_software")) continue;  // llvmpipe
+        const bool software = ext && std::strstr(ext, "EGL_MESA_device_software");
+        const char* drm = ext && std::strstr(ext, "EGL_EXT_device_drm")
+                              ? queryDeviceString(devices[i], EGL_DRM_DEVICE_FILE_EXT)
+                              : nullptr;
+        const std::string name = std::to_string(i) + ": " +
+                                 (software ? "software (EGL_MESA_device_software)" : "hardware") +
+                                 (drm ? std::string(" ") + drm : std::string());
+        this->devices.push_back(name);
+        if (software || display != EGL_NO_DISPLAY) continue;  // llvmpipe: the surfaceless path
         EGLDisplay d = getPlatformDisplay(EGL_PLATFORM_DEVICE_EXT, devices[i], nullptr);
         if (d != EGL_NO_DISPLAY && initialize(d, &major, &minor)) {
           display = d;
           platform = "device";
+          device_used = name;
         }
       }
     }
@@ -119,6 +132,7 @@ std::string GlContext::Impl::try_egl() {
       return "eglInitialize failed (error 0x" + std::to_string(getError()) + ")";
     }
     platform = "surfaceless";
+    device_used = "Mesa surfaceless platform (no hardware EGL device initialised)";
   }
   const EGLint config_attribs[] = {EGL_RED_SIZE, 8, EGL_GREEN_SIZE, 8, EGL_BLUE_SIZE, 8,
                                    EGL_ALPHA_SIZE, 8, EGL_DEPTH_SIZE, 24, EGL_STENCIL_SIZE, 8,
@@ -217,6 +231,12 @@ GlContext::~GlContext() {
 
 GlBackend GlContext::backend() const { return impl_->backend; }
 
+
+std::vector<std::string> GlContext::devices() const { return impl_->devices; }
+
+std::string GlContext::device_used() const {
+  return impl_->backend == GlBackend::OsMesa ? "OSMesa (no EGL)" : impl_->device_used;
+}
 
 std::string GlContext::description() const {
   const std::string platform = impl_->platform.empty() ? "" : " " + impl_->platform;

@@ -6,7 +6,7 @@
 #include <Eigen/Geometry>
 
 #include "lander/estimator/altitude_fusion.h"
-#include "lander/estimator/types.h"
+#include "lander/core/types.h"
 
 namespace lander::sim {
 
@@ -29,7 +29,7 @@ void SensorSuiteParams::validate() const {
 }
 
 void PlatformTelemetryParams::validate() const {
-  require(message_loss_prob >= 0 && message_loss_prob <= 1, "message_loss_prob", "must be in [0, 1]");
+  check_fields(*this);
   validate_nested("gnss", gnss);
 }
 

@@ -1,6 +1,6 @@
 #include "lander/sim/util/output_files.h"
 
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 
 #include <unistd.h>
 

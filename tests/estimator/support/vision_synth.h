@@ -13,7 +13,7 @@
 
 #include "common/pose_errors.h"
 #include "lander/estimator/target.h"
-#include "lander/estimator/types.h"
+#include "lander/core/types.h"
 
 namespace lander::test {
 

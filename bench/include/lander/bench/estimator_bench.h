@@ -17,9 +17,9 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 #include "lander/estimator/target.h"
-#include "lander/estimator/types.h"
+#include "lander/core/types.h"
 #include "lander/estimator/vision_params.h"
 #include "lander/bench/peer_detectors.h"
 
@@ -92,22 +92,28 @@ struct EstimatorBenchParams {
 
 template <class V>
 void visit_fields(V& v, EstimatorBenchParams& p) {
-  v("altitudes_m", p.altitudes_m);
-  v("tilts_deg", p.tilts_deg);
-  v("blur_px", p.blur_px);
-  v("yaws_per_view", p.yaws_per_view);
-  v("empty_frames", p.empty_frames);
-  v("seed", p.seed);
-  v("aim_jitter_m", p.aim_jitter_m);
-  v("view_sweep", p.view_sweep);
-  v("shadow_sweep", p.shadow_sweep);
-  v("shadow_altitudes_m", p.shadow_altitudes_m);
-  v("shadow_tilts_deg", p.shadow_tilts_deg);
-  v("shadow_widths_m", p.shadow_widths_m);
-  v("shadow_lights", p.shadow_lights);
-  v("shadow_views_per_pose", p.shadow_views_per_pose);
-  v("shadow_max_offset_m", p.shadow_max_offset_m);
-  v("shadow_empty_frames", p.shadow_empty_frames);
+  v("altitudes_m", p.altitudes_m, range::any, "m", "camera height above the top");
+  v("tilts_deg", p.tilts_deg, range::any, "deg", "optical axis vs normal");
+  v("blur_px", p.blur_px, range::any, "px", "motion-blur lengths");
+  v("yaws_per_view", p.yaws_per_view, range::at_least(1), "",
+    "random yaws (and azimuths) per altitude/tilt/blur");
+  v("empty_frames", p.empty_frames, range::non_negative, "", "frames with no target in view");
+  v("seed", p.seed, range::any, "", "random yaws, empty-frame poses");
+  v("aim_jitter_m", p.aim_jitter_m, range::non_negative, "m",
+    "random offset of the aim point from the platform centre");
+  v("view_sweep", p.view_sweep, range::any, "",
+    "run the sweep of views above (altitude x tilt x blur)");
+  v("shadow_sweep", p.shadow_sweep, range::any, "", "run the shadow condition");
+  v("shadow_altitudes_m", p.shadow_altitudes_m, range::any, "m", "camera heights");
+  v("shadow_tilts_deg", p.shadow_tilts_deg, range::any, "deg", "optical axis vs normal");
+  v("shadow_widths_m", p.shadow_widths_m, range::any, "m", "band widths on the plane");
+  v("shadow_lights", p.shadow_lights, range::any, "", "light left in the band (0.2 = 20 %)");
+  v("shadow_views_per_pose", p.shadow_views_per_pose, range::at_least(1), "",
+    "random yaws per altitude/tilt");
+  v("shadow_max_offset_m", p.shadow_max_offset_m, range::non_negative, "m",
+    "band centre line within this of the P origin");
+  v("shadow_empty_frames", p.shadow_empty_frames, range::non_negative, "",
+    "target-free frames with a random band");
 }
 
 // Camera pose X_PC looking at `aim_P_m` from `altitude_m` above the platform plane, the optical

@@ -18,7 +18,7 @@
 #include <opencv2/core.hpp>
 
 #include "lander/estimator/target.h"
-#include "lander/estimator/types.h"
+#include "lander/core/types.h"
 
 namespace lander::bench {
 

@@ -22,7 +22,7 @@
 #include <string>
 #include <vector>
 
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 
 namespace lander::campaign {
 

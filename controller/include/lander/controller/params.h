@@ -1,6 +1,6 @@
 // Controller parameters: nominal vehicle, cascade gains, landing mode machine.
 //
-// Every struct follows the params protocol of lander/estimator/params_io.h: in-class defaults
+// Every struct follows the params protocol of lander/core/params_io.h: in-class defaults
 // with units, validate() throwing ConfigError naming the field, visit_fields() listing the
 // YAML keys. The vehicle figures are the controller's own nominal copy of the ZD850-class
 // hexarotor of seed 000 (a real flight controller does not read the simulator's model).
@@ -29,15 +29,15 @@ struct VehicleParams {
 
 template <class V>
 void visit_fields(V& v, VehicleParams& p) {
-  v("mass_kg", p.mass_kg);
-  v("inertia_kgm2", p.inertia_kgm2);
-  v("arm_m", p.arm_m);
-  v("k_thrust", p.k_thrust);
-  v("k_torque", p.k_torque);
-  v("w_max_radps", p.w_max_radps);
-  v("w_idle_radps", p.w_idle_radps);
-  v("motor_tau_s", p.motor_tau_s);
-  v("gravity_mps2", p.gravity_mps2);
+  v("mass_kg", p.mass_kg, range::positive, "kg", "total mass");
+  v("inertia_kgm2", p.inertia_kgm2, range::positive, "kg m^2", "diagonal of J in B");
+  v("arm_m", p.arm_m, range::positive, "m", "centre to rotor axis");
+  v("k_thrust", p.k_thrust, range::positive, "N/(rad/s)^2", "rotor thrust T = kT w^2");
+  v("k_torque", p.k_torque, range::positive, "N m/(rad/s)^2", "rotor drag torque Q = kQ w^2");
+  v("w_max_radps", p.w_max_radps, range::positive, "rad/s", "max rotor speed");
+  v("w_idle_radps", p.w_idle_radps, range::any, "rad/s", "min rotor speed in flight");
+  v("motor_tau_s", p.motor_tau_s, range::non_negative, "s", "first-order motor lag");
+  v("gravity_mps2", p.gravity_mps2, range::positive, "m/s^2", "gravity");
 }
 
 // Gains and limits of the cascade (seed 003 section 2, Fig. 3): position -> velocity ->
@@ -87,31 +87,38 @@ struct CascadeParams {
 
 template <class V>
 void visit_fields(V& v, CascadeParams& p) {
-  v("outer_rate_hz", p.outer_rate_hz);
-  v("pos_kp_xy", p.pos_kp_xy);
-  v("pos_kp_z", p.pos_kp_z);
-  v("vel_kp_xy", p.vel_kp_xy);
-  v("vel_ki_xy", p.vel_ki_xy);
-  v("vel_kp_z", p.vel_kp_z);
-  v("vel_ki_z", p.vel_ki_z);
-  v("max_int_accel_mps2", p.max_int_accel_mps2);
-  v("max_vel_xy_mps", p.max_vel_xy_mps);
-  v("max_vel_up_mps", p.max_vel_up_mps);
-  v("max_vel_down_mps", p.max_vel_down_mps);
-  v("max_accel_z_mps2", p.max_accel_z_mps2);
-  v("max_tilt_deg", p.max_tilt_deg);
-  v("att_kp_rp", p.att_kp_rp);
-  v("att_kp_yaw", p.att_kp_yaw);
-  v("max_rate_rp_degps", p.max_rate_rp_degps);
-  v("max_rate_yaw_degps", p.max_rate_yaw_degps);
-  v("rate_kp_rp", p.rate_kp_rp);
-  v("rate_ki_rp", p.rate_ki_rp);
-  v("rate_kp_yaw", p.rate_kp_yaw);
-  v("rate_ki_yaw", p.rate_ki_yaw);
-  v("max_int_alpha_radps2", p.max_int_alpha_radps2);
-  v("dist_ff_gain", p.dist_ff_gain);
-  v("dist_filter_tau_s", p.dist_filter_tau_s);
-  v("max_dist_accel_mps2", p.max_dist_accel_mps2);
+  v("outer_rate_hz", p.outer_rate_hz, range::positive, "Hz", "position/velocity loop rate");
+  v("pos_kp_xy", p.pos_kp_xy, range::positive, "1/s", "horizontal position gain");
+  v("pos_kp_z", p.pos_kp_z, range::positive, "1/s", "vertical position gain");
+  v("vel_kp_xy", p.vel_kp_xy, range::positive, "1/s", "horizontal velocity gain");
+  v("vel_ki_xy", p.vel_ki_xy, range::non_negative, "1/s^2", "horizontal velocity integral gain");
+  v("vel_kp_z", p.vel_kp_z, range::positive, "1/s", "vertical velocity gain");
+  v("vel_ki_z", p.vel_ki_z, range::non_negative, "1/s^2", "vertical velocity integral gain");
+  v("max_int_accel_mps2", p.max_int_accel_mps2, range::non_negative, "m/s^2",
+    "anti-windup bound of each integral term");
+  v("max_vel_xy_mps", p.max_vel_xy_mps, range::positive, "m/s",
+    "horizontal speed limit of the velocity setpoint");
+  v("max_vel_up_mps", p.max_vel_up_mps, range::positive, "m/s", "climb speed limit");
+  v("max_vel_down_mps", p.max_vel_down_mps, range::positive, "m/s", "descent speed limit");
+  v("max_accel_z_mps2", p.max_accel_z_mps2, range::positive, "m/s^2",
+    "|vertical acceleration command| limit");
+  v("max_tilt_deg", p.max_tilt_deg, range::open(0, 80), "deg", "tilt limit of the thrust vector");
+  v("att_kp_rp", p.att_kp_rp, range::positive, "1/s", "roll/pitch attitude gain");
+  v("att_kp_yaw", p.att_kp_yaw, range::positive, "1/s", "yaw attitude gain");
+  v("max_rate_rp_degps", p.max_rate_rp_degps, range::positive, "deg/s",
+    "roll/pitch rate setpoint limit");
+  v("max_rate_yaw_degps", p.max_rate_yaw_degps, range::positive, "deg/s", "yaw rate setpoint limit");
+  v("rate_kp_rp", p.rate_kp_rp, range::positive, "1/s", "roll/pitch rate gain");
+  v("rate_ki_rp", p.rate_ki_rp, range::non_negative, "1/s^2", "roll/pitch rate integral gain");
+  v("rate_kp_yaw", p.rate_kp_yaw, range::positive, "1/s", "yaw rate gain");
+  v("rate_ki_yaw", p.rate_ki_yaw, range::non_negative, "1/s^2", "yaw rate integral gain");
+  v("max_int_alpha_radps2", p.max_int_alpha_radps2, range::non_negative, "rad/s^2",
+    "anti-windup bound of the rate integral");
+  v("dist_ff_gain", p.dist_ff_gain, range::closed(0, 1), "", "share of that estimate fed forward");
+  v("dist_filter_tau_s", p.dist_filter_tau_s, range::positive, "s",
+    "low-pass time constant of the disturbance estimate");
+  v("max_dist_accel_mps2", p.max_dist_accel_mps2, range::non_negative, "m/s^2",
+    "bound of the estimate's norm");
 }
 
 // Platform tracking from vision (seed 000 eq. 24-28).
@@ -153,23 +160,36 @@ struct TrackerParams {
 
 template <class V>
 void visit_fields(V& v, TrackerParams& p) {
-  v("poly_order", p.poly_order);
-  v("fit_window_s", p.fit_window_s);
-  v("max_poly_extrapolation_s", p.max_poly_extrapolation_s);
-  v("velocity_window_s", p.velocity_window_s);
-  v("platform_accel_noise_mps2", p.platform_accel_noise_mps2);
-  v("fix_noise_m", p.fix_noise_m);
-  v("fix_noise_per_m", p.fix_noise_per_m);
-  v("fix_gate_sigma", p.fix_gate_sigma);
-  v("relative_window_s", p.relative_window_s);
-  v("platform_jerk_noise_mps3", p.platform_jerk_noise_mps3);
-  v("platform_max_accel_mps2", p.platform_max_accel_mps2);
-  v("platform_max_speed_mps", p.platform_max_speed_mps);
-  v("history_s", p.history_s);
-  v("nav_history_s", p.nav_history_s);
-  v("turn_fit_window_s", p.turn_fit_window_s);
-  v("turn_min_speed_mps", p.turn_min_speed_mps);
-  v("max_turn_rate_radps", p.max_turn_rate_radps);
+  v("poly_order", p.poly_order, range::closed(1, 6), "", "order of the per-axis fit");
+  v("fit_window_s", p.fit_window_s, range::positive, "s",
+    "fit window: ~ the paper's 80 frames at 30 Hz");
+  v("max_poly_extrapolation_s", p.max_poly_extrapolation_s, range::non_negative, "s",
+    "beyond this horizon the prediction continues linearly");
+  v("velocity_window_s", p.velocity_window_s, range::positive, "s",
+    "window of the local position fit");
+  v("platform_accel_noise_mps2", p.platform_accel_noise_mps2, range::positive, "m/s^2",
+    "velocity filter");
+  v("fix_noise_m", p.fix_noise_m, range::positive, "m", "vision fix noise std at zero range");
+  v("fix_noise_per_m", p.fix_noise_per_m, range::non_negative, "m",
+    "... growing with the range (m per m)");
+  v("fix_gate_sigma", p.fix_gate_sigma, range::positive, "",
+    "a fix this many sigma off the filter's prediction is rejected");
+  v("relative_window_s", p.relative_window_s, range::positive, "s",
+    "window of the line fit of the relative vector");
+  v("platform_jerk_noise_mps3", p.platform_jerk_noise_mps3, range::positive, "m/s^3",
+    "acceleration filter");
+  v("platform_max_accel_mps2", p.platform_max_accel_mps2, range::positive, "m/s^2",
+    "bound of that acceleration estimate");
+  v("platform_max_speed_mps", p.platform_max_speed_mps, range::positive, "m/s",
+    "plausibility bound of the platform speed");
+  v("history_s", p.history_s, range::any, "s", "how long observations are kept");
+  v("nav_history_s", p.nav_history_s, range::positive, "s", "nav-state buffer for latency");
+  v("turn_fit_window_s", p.turn_fit_window_s, range::positive, "s",
+    "window of the quadratic fit that gives speed");
+  v("turn_min_speed_mps", p.turn_min_speed_mps, range::positive, "m/s",
+    "below this speed no heading");
+  v("max_turn_rate_radps", p.max_turn_rate_radps, range::non_negative, "rad/s",
+    "bound of the turn rate");
 }
 
 // Landing mode machine (seed 000 section 3) and the safety behaviour the paper leaves out.
@@ -424,85 +444,175 @@ struct LandingParams {
   void validate() const;
 };
 
+// LandingParams' keys: the observe and approach phases, the recovery descent.
+template <class V>
+void visit_approach_and_descent_fields(V& v, LandingParams& p) {
+  v("observe_frames", p.observe_frames, range::at_least(1), "",
+    "keyframes before approach (paper: 80)");
+  v("approach_entry_max_error_m", p.approach_entry_max_error_m, range::non_negative.because("0: off"), "m",
+    "horizontal error to the platform");
+  v("approach_entry_wait_s", p.approach_entry_wait_s, range::non_negative, "s",
+    "observe time after which it starts anyway");
+  v("approach_epsilon_m", p.approach_epsilon_m, range::positive, "m",
+    "height above the platform at t_d");
+  v("approach_speed_mps", p.approach_speed_mps, range::positive, "m/s", "mean speed that sets t_d");
+  v("approach_min_duration_s", p.approach_min_duration_s, range::positive, "s",
+    "lower bound of t_d");
+  v("approach_max_duration_s", p.approach_max_duration_s, range::any, "s", "upper bound of t_d");
+  v("approach_switch_error_m", p.approach_switch_error_m, range::positive, "m",
+    "|Diff| at t >= t_d to enter recovery (paper 5 cm)");
+  v("approach_settle_timeout_s", p.approach_settle_timeout_s, range::non_negative, "s",
+    "after t_d: enter recovery anyway if in view");
+  v("approach_match_velocities", p.approach_match_velocities, range::any, "",
+    "true (default since 2026-11-28)");
+  v("descent_rate_mps", p.descent_rate_mps, range::positive, "m/s",
+    "descent rate high above the platform");
+  v("descent_rate_near_mps", p.descent_rate_near_mps, range::any, "m/s",
+    "descent rate below near_height_m");
+  v("descent_rate_final_mps", p.descent_rate_final_mps, range::any, "m/s",
+    "descent rate below final_hold_height_m");
+  v("max_descent_near_mps", p.max_descent_near_mps, range::any, "m/s",
+    "descent speed limit of the velocity setpoint in recovery below");
+  v("max_descent_final_mps", p.max_descent_final_mps, range::any, "m/s",
+    "descent speed limit below final_hold_height_m");
+  v("near_height_m", p.near_height_m, range::positive, "m",
+    "gear height above the top where it slows");
+  v("descent_gate_m", p.descent_gate_m, range::positive, "m",
+    "descend only while |horizontal error| < this");
+  v("descent_gate_near_m", p.descent_gate_near_m, range::positive, "m",
+    "descent gate below near_height_m");
+  v("final_hover_gap_m", p.final_hover_gap_m, range::any, "m",
+    "lowest gear clearance the descent aims at");
+  v("final_hold_height_m", p.final_hold_height_m, range::any, "m",
+    "below this gear clearance descend into contact only while |error| <");
+  v("final_descent_error_m", p.final_descent_error_m, range::any, "m",
+    "below final_hold_height_m descend on into contact only while |error| <");
+  v("final_descent_rel_speed_mps", p.final_descent_rel_speed_mps, range::positive, "m/s",
+    "... and while the horizontal speed relative to the platform is below");
+  v("final_wait_gap_m", p.final_wait_gap_m, range::any, "m",
+    "below final_hold_height_m with an error between touchdown_error_m");
+}
+
+// ... the visual servo, the cut and touchdown test, loss timeouts, the go-around.
+template <class V>
+void visit_servo_and_touchdown_fields(V& v, LandingParams& p) {
+  v("recovery_max_carrot_m", p.recovery_max_carrot_m, range::positive, "m",
+    "visual-servo setpoint at most this far from the vehicle horizontally");
+  v("servo_ki", p.servo_ki, range::non_negative, "1/s",
+    "integral gain of the visual servo on the horizontal error");
+  v("servo_max_correction_m", p.servo_max_correction_m, range::non_negative, "m",
+    "bound of that integral correction");
+  v("servo_int_max_platform_accel_mps2", p.servo_int_max_platform_accel_mps2, range::non_negative, "m/s^2",
+    "The integral learns only while the platform's estimated acceleration");
+  v("platform_accel_ff_gain", p.platform_accel_ff_gain, range::closed(0, 1), "",
+    "share of the platform's estimated acceleration");
+  v("platform_accel_ff_deadband_mps2", p.platform_accel_ff_deadband_mps2, range::non_negative, "m/s^2",
+    "Below this magnitude nothing of that acceleration is fed forward");
+  v("platform_accel_ff_full_mps2", p.platform_accel_ff_full_mps2, range::any, "m/s^2",
+    "From this magnitude on it is fed forward whole");
+  v("gear_height_m", p.gear_height_m, range::non_negative, "m",
+    "CoM height above the surface when landed");
+  v("cut_height_m", p.cut_height_m, range::positive, "m", "cut when gear clearance is below this");
+  v("touchdown_error_m", p.touchdown_error_m, range::positive, "m",
+    "cut only when |horizontal error| < this");
+  v("max_touchdown_rel_speed_mps", p.max_touchdown_rel_speed_mps, range::positive, "m/s",
+    "cut only when |relative velocity| < this");
+  v("steady_window_s", p.steady_window_s, range::positive, "s",
+    "window of the platform-steadiness test");
+  v("steady_tilt_deg", p.steady_tilt_deg, range::positive, "deg",
+    "max spread of the platform normal in it");
+  v("max_platform_tilt_deg", p.max_platform_tilt_deg, range::open(0, 90), "deg",
+    "max platform tilt from vertical");
+  v("contact_min_time_s", p.contact_min_time_s, range::non_negative, "s",
+    "after the cut, wait for rotor spin-down");
+  v("contact_accel_frac", p.contact_accel_frac, range::open(0, 1.5), "",
+    "contact: specific force z > this * g");
+  v("contact_confirm_s", p.contact_confirm_s, range::non_negative, "s", "... held for this long");
+  v("contact_timeout_s", p.contact_timeout_s, range::any, "s",
+    "no contact after the cut -> go-around");
+  v("loss_timeout_s", p.loss_timeout_s, range::positive, "s", "no detection this long");
+  v("recovery_loss_timeout_s", p.recovery_loss_timeout_s, range::positive, "s",
+    "the same in recovery");
+  v("descent_stale_s", p.descent_stale_s, range::positive, "s",
+    "descend only with a detection this fresh");
+  v("approach_goal_max_rate_mps", p.approach_goal_max_rate_mps, range::positive, "m/s",
+    "a replan moves P_d by at most this per second");
+  v("track_max_tilt_deg", p.track_max_tilt_deg, range::open(0, 80), "deg",
+    "tilt limit while the target must stay in view");
+  v("reacquire_frames", p.reacquire_frames, range::at_least(1), "",
+    "consecutive keyframes to re-acquire");
+  v("go_around_low_height_m", p.go_around_low_height_m, range::positive, "m",
+    "lost below this height above the top -> go-around");
+  v("go_around_error_m", p.go_around_error_m, range::any, "m",
+    "horizontal error in recovery below near_height_m -> go-around");
+  v("go_around_height_m", p.go_around_height_m, range::any, "m",
+    "climb to this height above the top");
+}
+
+// ... the search, the platform broadcast, the footprint, the landing decision.
+template <class V>
+void visit_search_and_decisions_fields(V& v, LandingParams& p) {
+  v("search_min_height_m", p.search_min_height_m, range::positive, "m",
+    "search/hold at least this high above ground");
+  v("search_yaw_rate_degps", p.search_yaw_rate_degps, range::closed(0, 90), "deg/s",
+    "heading sweep while searching");
+  v("search_spiral_after_s", p.search_spiral_after_s, range::non_negative, "s",
+    "with nothing to predict from");
+  v("search_spiral_spacing_m", p.search_spiral_spacing_m, range::positive, "m",
+    "distance between the spiral's turns");
+  v("search_spiral_speed_mps", p.search_spiral_speed_mps, range::non_negative, "m/s",
+    "speed along the spiral");
+  v("search_max_radius_m", p.search_max_radius_m, range::positive, "m",
+    "the spiral becomes a circle at this radius");
+  v("observe_follow_max_speed_mps", p.observe_follow_max_speed_mps, range::positive, "m/s",
+    "catch-up speed of the observe follow point relative to the platform");
+  v("observe_follow_max_accel_mps2", p.observe_follow_max_accel_mps2, range::positive, "m/s^2",
+    "acceleration of that catch-up");
+  v("search_predict_max_s", p.search_predict_max_s, range::non_negative, "s",
+    "after a loss, search fly to the tracker's prediction of the platform");
+  v("search_expand_after_s", p.search_expand_after_s, range::non_negative, "s",
+    "after a loss, fly to the prediction alone until this long after");
+  v("search_climb_rate_mps", p.search_climb_rate_mps, range::non_negative, "m/s",
+    "... and climbing at this rate for a wider view");
+  v("search_first_climb_rate_mps", p.search_first_climb_rate_mps, range::non_negative, "m/s",
+    "the first search with nothing to predict from (no fix, no broadcast)");
+  v("search_max_height_m", p.search_max_height_m, range::positive, "m",
+    "... up to this height above the platform top");
+  v("telemetry_max_age_s", p.telemetry_max_age_s, range::non_negative, "s",
+    "use the broadcast while its latest message was sampled at most");
+  v("telemetry_arrive_radius_m", p.telemetry_arrive_radius_m, range::positive, "m",
+    "the search pattern around the broadcast position begins");
+  v("telemetry_search_height_m", p.telemetry_search_height_m, range::positive, "m",
+    "... flown at least this high above the surface below");
+  v("platform_half_size_m", p.platform_half_size_m, range::positive, "m",
+    "half the side of the square landing top");
+  v("skid_half_spread_m", p.skid_half_spread_m, range::positive, "m",
+    "skids' outer edges from the vehicle's centre line");
+  v("skid_half_length_m", p.skid_half_length_m, range::positive, "m",
+    "skids' ends from the centre along body x");
+  v("wide_gate_margin_m", p.wide_gate_margin_m, range::non_negative, "m",
+    "margin of the wide gate for vision error and a tilted gear at contact");
+  v("cut_vision_radius_m", p.cut_vision_radius_m, range::positive, "m",
+    "largest horizontal offset from the platform centre at which vision");
+  v("final_decision_after_s", p.final_decision_after_s, range::positive, "s",
+    "in recovery, this long after first going below final_hold_height_m");
+  v("recovery_decision_after_s", p.recovery_decision_after_s, range::positive, "s",
+    "the final-stage timer above also starts this long after entering");
+  v("search_give_up_s", p.search_give_up_s, range::positive, "s",
+    "search that has not acquired the target this long after entering it");
+  v("final_decision_window_s", p.final_decision_window_s, range::non_negative, "s",
+    "... linearly over this long");
+  v("max_wide_departures", p.max_wide_departures, range::non_negative, "",
+    "committed wide, the error may leave the wide gate this often");
+  v("max_landing_attempts", p.max_landing_attempts, range::at_least(1), "",
+    "approaches before a failed one ends in aborted instead of another");
+}
+
 template <class V>
 void visit_fields(V& v, LandingParams& p) {
-  v("observe_frames", p.observe_frames);
-  v("approach_entry_max_error_m", p.approach_entry_max_error_m);
-  v("approach_entry_wait_s", p.approach_entry_wait_s);
-  v("approach_epsilon_m", p.approach_epsilon_m);
-  v("approach_speed_mps", p.approach_speed_mps);
-  v("approach_min_duration_s", p.approach_min_duration_s);
-  v("approach_max_duration_s", p.approach_max_duration_s);
-  v("approach_switch_error_m", p.approach_switch_error_m);
-  v("approach_settle_timeout_s", p.approach_settle_timeout_s);
-  v("approach_match_velocities", p.approach_match_velocities);
-  v("descent_rate_mps", p.descent_rate_mps);
-  v("descent_rate_near_mps", p.descent_rate_near_mps);
-  v("descent_rate_final_mps", p.descent_rate_final_mps);
-  v("max_descent_near_mps", p.max_descent_near_mps);
-  v("max_descent_final_mps", p.max_descent_final_mps);
-  v("near_height_m", p.near_height_m);
-  v("descent_gate_m", p.descent_gate_m);
-  v("descent_gate_near_m", p.descent_gate_near_m);
-  v("final_hover_gap_m", p.final_hover_gap_m);
-  v("final_hold_height_m", p.final_hold_height_m);
-  v("final_descent_error_m", p.final_descent_error_m);
-  v("final_descent_rel_speed_mps", p.final_descent_rel_speed_mps);
-  v("final_wait_gap_m", p.final_wait_gap_m);
-  v("recovery_max_carrot_m", p.recovery_max_carrot_m);
-  v("servo_ki", p.servo_ki);
-  v("servo_max_correction_m", p.servo_max_correction_m);
-  v("servo_int_max_platform_accel_mps2", p.servo_int_max_platform_accel_mps2);
-  v("platform_accel_ff_gain", p.platform_accel_ff_gain);
-  v("platform_accel_ff_deadband_mps2", p.platform_accel_ff_deadband_mps2);
-  v("platform_accel_ff_full_mps2", p.platform_accel_ff_full_mps2);
-  v("gear_height_m", p.gear_height_m);
-  v("cut_height_m", p.cut_height_m);
-  v("touchdown_error_m", p.touchdown_error_m);
-  v("max_touchdown_rel_speed_mps", p.max_touchdown_rel_speed_mps);
-  v("steady_window_s", p.steady_window_s);
-  v("steady_tilt_deg", p.steady_tilt_deg);
-  v("max_platform_tilt_deg", p.max_platform_tilt_deg);
-  v("contact_min_time_s", p.contact_min_time_s);
-  v("contact_accel_frac", p.contact_accel_frac);
-  v("contact_confirm_s", p.contact_confirm_s);
-  v("contact_timeout_s", p.contact_timeout_s);
-  v("loss_timeout_s", p.loss_timeout_s);
-  v("recovery_loss_timeout_s", p.recovery_loss_timeout_s);
-  v("descent_stale_s", p.descent_stale_s);
-  v("approach_goal_max_rate_mps", p.approach_goal_max_rate_mps);
-  v("track_max_tilt_deg", p.track_max_tilt_deg);
-  v("reacquire_frames", p.reacquire_frames);
-  v("go_around_low_height_m", p.go_around_low_height_m);
-  v("go_around_error_m", p.go_around_error_m);
-  v("go_around_height_m", p.go_around_height_m);
-  v("search_min_height_m", p.search_min_height_m);
-  v("search_yaw_rate_degps", p.search_yaw_rate_degps);
-  v("search_spiral_after_s", p.search_spiral_after_s);
-  v("search_spiral_spacing_m", p.search_spiral_spacing_m);
-  v("search_spiral_speed_mps", p.search_spiral_speed_mps);
-  v("search_max_radius_m", p.search_max_radius_m);
-  v("observe_follow_max_speed_mps", p.observe_follow_max_speed_mps);
-  v("observe_follow_max_accel_mps2", p.observe_follow_max_accel_mps2);
-  v("search_predict_max_s", p.search_predict_max_s);
-  v("search_expand_after_s", p.search_expand_after_s);
-  v("search_climb_rate_mps", p.search_climb_rate_mps);
-  v("search_first_climb_rate_mps", p.search_first_climb_rate_mps);
-  v("search_max_height_m", p.search_max_height_m);
-  v("telemetry_max_age_s", p.telemetry_max_age_s);
-  v("telemetry_arrive_radius_m", p.telemetry_arrive_radius_m);
-  v("telemetry_search_height_m", p.telemetry_search_height_m);
-  v("platform_half_size_m", p.platform_half_size_m);
-  v("skid_half_spread_m", p.skid_half_spread_m);
-  v("skid_half_length_m", p.skid_half_length_m);
-  v("wide_gate_margin_m", p.wide_gate_margin_m);
-  v("cut_vision_radius_m", p.cut_vision_radius_m);
-  v("final_decision_after_s", p.final_decision_after_s);
-  v("recovery_decision_after_s", p.recovery_decision_after_s);
-  v("search_give_up_s", p.search_give_up_s);
-  v("final_decision_window_s", p.final_decision_window_s);
-  v("max_wide_departures", p.max_wide_departures);
-  v("max_landing_attempts", p.max_landing_attempts);
+  visit_approach_and_descent_fields(v, p);
+  visit_servo_and_touchdown_fields(v, p);
+  visit_search_and_decisions_fields(v, p);
 }
 
 // Everything the controller reads, one YAML mapping with four sections.

@@ -67,27 +67,37 @@ struct PathGuidanceParams {
 
 template <class V>
 void visit_fields(V& v, PathGuidanceParams& p) {
-  v("enabled", p.enabled);
-  v("guidance", p.guidance);
-  v("projection", p.projection);
-  v("r1_px", p.r1_px);
-  v("r2_px", p.r2_px);
-  v("tie_deg", p.tie_rad, M_PI / 180.0);
-  v("k_m_per_px", p.k_m_per_px);
-  v("height_m", p.height_m);
-  v("direction_given", p.direction_given);
-  v("direction_deg", p.direction_rad, M_PI / 180.0);
-  v("speed_mps", p.speed_mps);
-  v("min_speed_mps", p.min_speed_mps);
-  v("enter_frames", p.enter_frames);
-  v("enter_min_points", p.enter_min_points);
-  v("route_lost_s", p.route_lost_s);
-  v("end_after_s", p.end_after_s);
-  v("max_turn_deg", p.max_turn_rad, M_PI / 180.0);
-  v("trail_radius_m", p.trail_radius_m);
-  v("trail_skip_m", p.trail_skip_m);
-  v("baseline_yaw_rate_degps", p.baseline_yaw_rate_degps);
-  v("baseline_align_deg", p.baseline_align_deg);
+  v("enabled", p.enabled, range::any, "", "follow_path may be entered at all");
+  v("guidance", p.guidance, range::any, "", "min_angle | pixel_distribution");
+  v("projection", p.projection, range::any, "", "ray (exact ray-ground intersection) | constant_k");
+  v("r1_px", p.r1_px, range::any, "px", "eq. 10 inner radius (px, undistorted image)");
+  v("r2_px", p.r2_px, range::any, "px", "eq. 10 outer radius");
+  v("tie_deg", p.tie_rad, range::any, "deg",
+    "eq. 12: angles within this of the best tie", M_PI / 180.0);
+  v("k_m_per_px", p.k_m_per_px, range::open(0, 1), "px",
+    "constant_k: metres per pixel (4 m / 640 px)");
+  v("height_m", p.height_m, range::closed(1, 50), "m", "follow height above the ground");
+  v("direction_given", p.direction_given, range::any, "",
+    "the travel direction is given (direction_deg)");
+  v("direction_deg", p.direction_rad, range::any, "deg", "that direction, from W x", M_PI / 180.0);
+  v("speed_mps", p.speed_mps, range::open_closed(0, 5), "m/s", "speed along the route");
+  v("min_speed_mps", p.min_speed_mps, range::any, "m/s",
+    "below this the velocity gives no direction");
+  v("enter_frames", p.enter_frames, range::at_least(1), "",
+    "consecutive frames with a route before following");
+  v("enter_min_points", p.enter_min_points, range::at_least(1), "",
+    "candidates a frame needs to count");
+  v("route_lost_s", p.route_lost_s, range::positive, "s", "no route this long");
+  v("end_after_s", p.end_after_s, range::positive, "s", "no candidate ahead this long");
+  v("max_turn_deg", p.max_turn_rad, range::any, "deg",
+    "a candidate beyond this from v is behind", M_PI / 180.0);
+  v("trail_radius_m", p.trail_radius_m, range::non_negative, "m",
+    "candidates this close to the flown trail are behind");
+  v("trail_skip_m", p.trail_skip_m, range::non_negative, "m",
+    "the trail's last metres are not used");
+  v("baseline_yaw_rate_degps", p.baseline_yaw_rate_degps, range::open_closed(0, 180), "deg/s",
+    "pixel_distribution");
+  v("baseline_align_deg", p.baseline_align_deg, range::open(0, 90), "deg", "pixel_distribution");
 }
 
 // A frame's candidate points as the controller receives them (from the estimator's path

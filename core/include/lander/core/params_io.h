@@ -8,7 +8,13 @@
 //     v.nested("camera", p.camera);              // a nested params struct
 //   }
 //
-// and a `void validate() const` that checks every field with require(ok, "key", "problem"),
+// or, with the field's allowed range, unit and a short description (field_spec.h),
+//
+//     v("mass_kg", p.mass_kg, range::positive, "kg", "total mass");
+//     v("exposure_ms", p.exposure_s, range::positive, "ms", "exposure time", 1e-3);
+//
+// and a `void validate() const` that starts with check_fields(*this) (each field within its
+// range) and checks the rules across fields with require(ok, "key", "problem"),
 // naming the key by its path relative to the struct exactly as visit_fields spells it
 // ("rate_hz", "intrinsics.width_px"), and a nested struct with validate_nested("camera",
 // camera), which prefixes its keys ("camera.rate_hz"). The same list drives reading
@@ -32,6 +38,8 @@
 #include <vector>
 
 #include <Eigen/Core>
+
+#include "lander/core/field_spec.h"
 
 namespace lander {
 
@@ -120,6 +128,16 @@ class YamlReader {
   // A free-form mapping read as it is (a plugin's own configuration): must be a mapping or
   // empty; its keys are not checked here.
   void operator()(const char* key, YAML::Node& field);
+  // A field with its spec (field_spec.h): read as above; the range is check_fields()'s.
+  template <class T>
+  void operator()(const char* key, T& field, const Range&, const char*, const char*) {
+    (*this)(key, field);
+  }
+  template <class T>
+  void operator()(const char* key, T& field, const Range&, const char*, const char*,
+                  double scale) {
+    (*this)(key, field, scale);
+  }
 
   // Reads a nested params struct (a mapping) if present.
   template <class P>
@@ -197,6 +215,15 @@ class YamlWriter {
     YAML::Node copy = YAML::Clone(field);
     copy.SetStyle(YAML::EmitterStyle::Block);
     node_[key] = copy;
+  }
+  template <class T>
+  void operator()(const char* key, const T& field, const Range&, const char*, const char*) {
+    (*this)(key, field);
+  }
+  template <class T>
+  void operator()(const char* key, const T& field, const Range&, const char*, const char*,
+                  double scale) {
+    (*this)(key, field, scale);
   }
   template <class P>
   void nested(const char* key, P& sub) {

@@ -34,14 +34,16 @@ struct SampleLimits {
 
 template <class V>
 void visit_fields(V& v, SampleLimits& p) {
-  v("max_gyro_radps", p.max_gyro_radps);
-  v("max_accel_mps2", p.max_accel_mps2);
-  v("min_pressure_pa", p.min_pressure_pa);
-  v("max_pressure_pa", p.max_pressure_pa);
-  v("max_gps_distance_m", p.max_gps_distance_m);
-  v("max_gps_speed_mps", p.max_gps_speed_mps);
-  v("max_mag_field_uT", p.max_mag_field_uT);
-  v("max_vision_range_m", p.max_vision_range_m);
+  v("max_gyro_radps", p.max_gyro_radps, range::positive, "rad/s", "|rate| per axis");
+  v("max_accel_mps2", p.max_accel_mps2, range::positive, "m/s^2", "|specific force| per axis");
+  v("min_pressure_pa", p.min_pressure_pa, range::positive, "Pa", "barometer range");
+  v("max_pressure_pa", p.max_pressure_pa, range::any, "Pa", "... to ~700 m below it");
+  v("max_gps_distance_m", p.max_gps_distance_m, range::positive, "m",
+    "|p_W| of a fix from the W origin");
+  v("max_gps_speed_mps", p.max_gps_speed_mps, range::positive, "m/s", "|v_W| of a fix");
+  v("max_mag_field_uT", p.max_mag_field_uT, range::positive, "uT",
+    "|field|; the Earth's is 25-65 uT");
+  v("max_vision_range_m", p.max_vision_range_m, range::positive, "m", "|p_CP| of a vision pose");
 }
 
 // Rejected samples by source, since the start of the flight.

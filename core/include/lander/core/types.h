@@ -43,26 +43,23 @@ struct CameraModel {
   // without distortion).
   Eigen::Vector2d distort_px(const Eigen::Vector2d& u) const;
   void validate() const {
-    require(width_px > 0, "width_px", "must be > 0");
-    require(height_px > 0, "height_px", "must be > 0");
-    require(fx_px > 0, "fx_px", "must be > 0");
-    require(fy_px > 0, "fy_px", "must be > 0");
+    check_fields(*this);
   }
 };
 
 template <class V>
 void visit_fields(V& v, CameraModel& p) {
-  v("width_px", p.width_px);
-  v("height_px", p.height_px);
-  v("fx_px", p.fx_px);
-  v("fy_px", p.fy_px);
-  v("cx_px", p.cx_px);
-  v("cy_px", p.cy_px);
-  v("k1", p.k1);
-  v("k2", p.k2);
-  v("p1", p.p1);
-  v("p2", p.p2);
-  v("k3", p.k3);
+  v("width_px", p.width_px, range::positive, "px", "image width");
+  v("height_px", p.height_px, range::positive, "px", "image height");
+  v("fx_px", p.fx_px, range::positive, "px", "focal length along x");
+  v("fy_px", p.fy_px, range::positive, "px", "focal length along y");
+  v("cx_px", p.cx_px, range::any, "px", "principal point x");
+  v("cy_px", p.cy_px, range::any, "px", "principal point y");
+  v("k1", p.k1, range::any, "", "Brown-Conrady coefficients");
+  v("k2", p.k2, range::any, "", "Brown-Conrady coefficients");
+  v("p1", p.p1, range::any, "", "Brown-Conrady coefficients");
+  v("p2", p.p2, range::any, "", "Brown-Conrady coefficients");
+  v("k3", p.k3, range::any, "", "Brown-Conrady coefficients");
 }
 
 // Rigid mount of the camera on the body: X_BC. Default: under the centre of mass, looking
@@ -76,8 +73,8 @@ struct CameraMount {
 
 template <class V>
 void visit_fields(V& v, CameraMount& p) {
-  v("p_BC_m", p.p_BC_m);
-  v("rpy_BC_deg", p.rpy_BC_deg);
+  v("p_BC_m", p.p_BC_m, range::any, "m", "camera origin in B");
+  v("rpy_BC_deg", p.rpy_BC_deg, range::any, "deg", "R_BC as roll-pitch-yaw");
 }
 
 // One camera frame as the vehicle delivers it: BGR 8-bit image plus its exposure interval.

@@ -10,9 +10,9 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "lander/estimator/params_io.h"
-#include "lander/estimator/state.h"
-#include "lander/estimator/types.h"
+#include "lander/core/params_io.h"
+#include "lander/core/state.h"
+#include "lander/core/types.h"
 
 namespace lander {
 
@@ -111,38 +111,52 @@ struct AltitudeFusionParams {
 
 template <class V>
 void visit_fields(V& v, AltitudeFusionParams& p) {
-  v("baro_origin_msl_m", p.baro_origin_msl_m);
-  v("baro_std_m", p.baro_std_m);
-  v("gps_std_m", p.gps_std_m);
-  v("gps_corr_time_s", p.gps_corr_time_s);
-  v("gps_white_std_m", p.gps_white_std_m);
-  v("ultrasonic_std_m", p.ultrasonic_std_m);
-  v("vision_std_m", p.vision_std_m);
-  v("accel_noise_mps2", p.accel_noise_mps2);
-  v("accel_bias_rw_mps3", p.accel_bias_rw_mps3);
-  v("baro_bias_rw_mps", p.baro_bias_rw_mps);
-  v("surface_rw_mps", p.surface_rw_mps);
-  v("platform_rw_mps", p.platform_rw_mps);
-  v("initial_baro_bias_std_m", p.initial_baro_bias_std_m);
-  v("initial_accel_bias_std_mps2", p.initial_accel_bias_std_mps2);
-  v("platform_height_m", p.platform_height_m);
-  v("platform_height_std_m", p.platform_height_std_m);
-  v("switch_height_m", p.switch_height_m);
-  v("switch_hysteresis_m", p.switch_hysteresis_m);
-  v("baro_fallback_s", p.baro_fallback_s);
-  v("ultrasonic_min_m", p.ultrasonic_min_m);
-  v("ultrasonic_max_m", p.ultrasonic_max_m);
-  v("gate_sigma", p.gate_sigma);
-  v("gate_factor_n", p.gate_factor_n);
-  v("reject_sigma", p.reject_sigma);
-  v("reject_limit", p.reject_limit);
-  v("step_min_m", p.step_min_m);
-  v("step_count", p.step_count);
-  v("step_agree_m", p.step_agree_m);
-  v("surface_step_max_m", p.surface_step_max_m);
-  v("height_reset_count", p.height_reset_count);
-  v("clearance_count", p.clearance_count);
-  v("max_sample_age_ms", p.max_sample_age_s, 1e-3);
+  v("baro_origin_msl_m", p.baro_origin_msl_m, range::any, "m", "Barometer reference");
+  v("baro_std_m", p.baro_std_m, range::positive, "m",
+    "Measurement noise std (the diagonal of R, eq. 22) per sensor");
+  v("gps_std_m", p.gps_std_m, range::positive, "m", "std of the time-correlated GPS height error");
+  v("gps_corr_time_s", p.gps_corr_time_s, range::positive, "s", "its correlation time");
+  v("gps_white_std_m", p.gps_white_std_m, range::positive, "m",
+    "white part of the GPS height noise");
+  v("ultrasonic_std_m", p.ultrasonic_std_m, range::positive, "m", "");
+  v("vision_std_m", p.vision_std_m, range::positive, "m",
+    "used when update_vision is called without a std");
+  v("accel_noise_mps2", p.accel_noise_mps2, range::positive, "m/s^2",
+    "white vertical-accel noise density (m/s^2/sqrt)");
+  v("accel_bias_rw_mps3", p.accel_bias_rw_mps3, range::non_negative, "m/s^3",
+    "vertical accel bias random walk (m/s^2/sqrt)");
+  v("baro_bias_rw_mps", p.baro_bias_rw_mps, range::non_negative, "m/s", "baro bias drift");
+  v("surface_rw_mps", p.surface_rw_mps, range::non_negative, "m/s",
+    "surface height below changes (m/sqrt)");
+  v("platform_rw_mps", p.platform_rw_mps, range::non_negative, "m/s",
+    "target plane height (cart bounces) (m/sqrt)");
+  v("initial_baro_bias_std_m", p.initial_baro_bias_std_m, range::positive, "m",
+    "Initial uncertainty");
+  v("initial_accel_bias_std_mps2", p.initial_accel_bias_std_mps2, range::positive, "m/s^2", "");
+  v("platform_height_m", p.platform_height_m, range::any, "m",
+    "prior height of the target plane in W");
+  v("platform_height_std_m", p.platform_height_std_m, range::positive, "m", "its std: a surveyed");
+  v("switch_height_m", p.switch_height_m, range::positive, "m",
+    "Measurement-set switch (eq. 15-18)");
+  v("switch_hysteresis_m", p.switch_hysteresis_m, range::any, "m", "");
+  v("baro_fallback_s", p.baro_fallback_s, range::non_negative, "s",
+    "The eq. 17 set takes the ultrasonic instead of the barometer");
+  v("ultrasonic_min_m", p.ultrasonic_min_m, range::non_negative, "m",
+    "Ultrasonic readings outside [min");
+  v("ultrasonic_max_m", p.ultrasonic_max_m, range::any, "m", "");
+  v("gate_sigma", p.gate_sigma, range::positive, "", "Residual gate (eq. 27)");
+  v("gate_factor_n", p.gate_factor_n, range::closed(0, 1).because("eq. 27"), "N", "");
+  v("reject_sigma", p.reject_sigma, range::any, "", "residual beyond which a sample is rejected (sigma)");
+  v("reject_limit", p.reject_limit, range::non_negative, "", "");
+  v("step_min_m", p.step_min_m, range::positive, "m", "Surface-step detector for the ultrasonic");
+  v("step_count", p.step_count, range::closed(1, 8), "", "");
+  v("step_agree_m", p.step_agree_m, range::positive, "m", "");
+  v("surface_step_max_m", p.surface_step_max_m, range::any, "m", "");
+  v("height_reset_count", p.height_reset_count, range::non_negative, "",
+    "Height reset: the world under the vehicle is the ground");
+  v("clearance_count", p.clearance_count, range::non_negative, "",
+    "Clearance (AltitudeEstimate::clearance_m)");
+  v("max_sample_age_ms", p.max_sample_age_s, range::positive, "ms", "Latency compensation", 1e-3);
 }
 
 // Vertical acceleration in W (m/s^2, gravity removed) from an IMU specific force and the

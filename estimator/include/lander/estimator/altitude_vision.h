@@ -9,7 +9,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "lander/estimator/types.h"
+#include "lander/core/types.h"
 
 namespace lander {
 

@@ -7,7 +7,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 
-#include "lander/estimator/types.h"
+#include "lander/core/types.h"
 
 namespace lander {
 

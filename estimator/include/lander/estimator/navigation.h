@@ -49,9 +49,9 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "lander/estimator/params_io.h"
-#include "lander/estimator/state.h"
-#include "lander/estimator/types.h"
+#include "lander/core/params_io.h"
+#include "lander/core/state.h"
+#include "lander/core/types.h"
 
 namespace lander {
 
@@ -92,30 +92,41 @@ struct NavigationParams {
 
 template <class V>
 void visit_fields(V& v, NavigationParams& p) {
-  v("gravity_mps2", p.gravity_mps2);
-  v("mahony_kp", p.mahony_kp);
-  v("mahony_ki", p.mahony_ki);
-  v("accel_gate_frac", p.accel_gate_frac);
-  v("gyro_bias_limit_radps", p.gyro_bias_limit_radps);
-  v("initial_yaw_deg", p.initial_yaw_rad, M_PI / 180.0);
-  v("compensate_accel", p.compensate_accel);
-  v("accel_lowpass_s", p.accel_lowpass_s);
-  v("mahony_k_yaw", p.mahony_k_yaw);
-  v("yaw_min_accel_mps2", p.yaw_min_accel_mps2);
-  v("gps_loss_gyro_only_s", p.gps_loss_gyro_only_s);
-  v("accel_noise_mps2", p.accel_noise_mps2);
-  v("accel_bias_rw_mps3", p.accel_bias_rw_mps3);
-  v("initial_accel_bias_std_mps2", p.initial_accel_bias_std_mps2);
-  v("gps_horizontal_std_m", p.gps_horizontal_std_m);
-  v("gps_vertical_std_m", p.gps_vertical_std_m);
-  v("gps_velocity_std_mps", p.gps_velocity_std_mps);
-  v("gate_sigma", p.gate_sigma);
-  v("gate_factor_n", p.gate_factor_n);
-  v("max_sample_age_ms", p.max_sample_age_s, 1e-3);
-  v("use_magnetometer", p.use_magnetometer);
-  v("mag_field_W_uT", p.mag_field_W_uT);
-  v("mag_k_yaw", p.mag_k_yaw);
-  v("height_from_altitude_fusion", p.height_from_altitude_fusion);
+  v("gravity_mps2", p.gravity_mps2, range::positive, "m/s^2", "");
+  v("mahony_kp", p.mahony_kp, range::non_negative, "1/s", "proportional gain");
+  v("mahony_ki", p.mahony_ki, range::non_negative, "1/s^2", "integral (gyro bias) gain");
+  v("accel_gate_frac", p.accel_gate_frac, range::open(0, 1), "",
+    "skip accel correction beyond this |f|/g error");
+  v("gyro_bias_limit_radps", p.gyro_bias_limit_radps, range::positive, "rad/s",
+    "clamp of the gyro bias estimate");
+  v("initial_yaw_deg", p.initial_yaw_rad, range::any, "deg", "yaw at start", M_PI / 180.0);
+  v("compensate_accel", p.compensate_accel, range::any, "",
+    "subtract the GPS-derived acceleration");
+  v("accel_lowpass_s", p.accel_lowpass_s, range::positive, "s", "low-pass time constant of both");
+  v("mahony_k_yaw", p.mahony_k_yaw, range::non_negative, "1/s",
+    "yaw gain from horizontal acceleration");
+  v("yaw_min_accel_mps2", p.yaw_min_accel_mps2, range::positive, "m/s^2",
+    "least horizontal acceleration for it");
+  v("gps_loss_gyro_only_s", p.gps_loss_gyro_only_s, range::any, "s", "in a GPS drop-out");
+  v("accel_noise_mps2", p.accel_noise_mps2, range::positive, "m/s^2",
+    "accel noise density in W (m/s^2/sqrt)");
+  v("accel_bias_rw_mps3", p.accel_bias_rw_mps3, range::non_negative, "m/s^3",
+    "accel bias random walk (m/s^2/sqrt)");
+  v("initial_accel_bias_std_mps2", p.initial_accel_bias_std_mps2, range::positive, "m/s^2", "");
+  v("gps_horizontal_std_m", p.gps_horizontal_std_m, range::positive, "m", "GPS position std x");
+  v("gps_vertical_std_m", p.gps_vertical_std_m, range::positive, "m", "GPS position std z");
+  v("gps_velocity_std_mps", p.gps_velocity_std_mps, range::positive, "m/s",
+    "GPS velocity std per axis");
+  v("gate_sigma", p.gate_sigma, range::positive, "", "residual gate (multiples of sqrt(P~))");
+  v("gate_factor_n", p.gate_factor_n, range::closed(0, 1), "N",
+    "gain factor beyond the gate (eq. 27)");
+  v("max_sample_age_ms", p.max_sample_age_s, range::positive, "ms",
+    "older GPS fixes are dropped", 1e-3);
+  v("use_magnetometer", p.use_magnetometer, range::any, "", "correct yaw from the magnetometer");
+  v("mag_field_W_uT", p.mag_field_W_uT, range::any, "uT", "reference field in W");
+  v("mag_k_yaw", p.mag_k_yaw, range::non_negative, "1/s", "yaw correction gain");
+  v("height_from_altitude_fusion", p.height_from_altitude_fusion, range::any, "",
+    "the flight stack hands the controller the altitude fusion's height");
 }
 
 class Navigation {

@@ -11,8 +11,8 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
-#include "lander/estimator/params_io.h"
-#include "lander/estimator/types.h"
+#include "lander/core/params_io.h"
+#include "lander/core/types.h"
 
 namespace lander {
 
@@ -50,20 +50,24 @@ struct PathExtractorParams {
 
 template <class V>
 void visit_fields(V& v, PathExtractorParams& p) {
-  v("enabled", p.enabled);
-  v("work_width_px", p.work_width_px);
-  v("r_min", p.r_min);
-  v("r_max", p.r_max);
-  v("g_min", p.g_min);
-  v("g_max", p.g_max);
-  v("b_min", p.b_min);
-  v("b_max", p.b_max);
-  v("min_dominance", p.min_dominance);
-  v("erode_px", p.erode_px);
-  v("grid_cols", p.grid_cols);
-  v("grid_rows", p.grid_rows);
-  v("min_cell_pixels", p.min_cell_pixels);
-  v("min_component_px", p.min_component_px);
+  v("enabled", p.enabled, range::any, "", "run the stage at all");
+  v("work_width_px", p.work_width_px, range::closed(32, 8192), "px",
+    "the frame is resized to this width first");
+  v("r_min", p.r_min, range::any, "", "red lower bound");
+  v("r_max", p.r_max, range::any, "", "red upper bound");
+  v("g_min", p.g_min, range::any, "", "green lower bound");
+  v("g_max", p.g_max, range::any, "", "green upper bound");
+  v("b_min", p.b_min, range::any, "", "blue lower bound");
+  v("b_max", p.b_max, range::any, "", "blue upper bound");
+  v("min_dominance", p.min_dominance, range::closed_open(0, 255), "",
+    "R - max(G, B) must exceed this (0..255, grey levels)");
+  v("erode_px", p.erode_px, range::any, "px", "eq. 7 erosion kernel side (px at work resolution)");
+  v("grid_cols", p.grid_cols, range::closed(1, 100), "", "M: grid columns (the paper: 10)");
+  v("grid_rows", p.grid_rows, range::closed(1, 100), "", "N: grid rows (the paper: 10)");
+  v("min_cell_pixels", p.min_cell_pixels, range::at_least(1), "",
+    "centre-line pixels a cell needs to give a point (work px)");
+  v("min_component_px", p.min_component_px, range::non_negative, "px",
+    "connected components of the eroded mask smaller than this many work");
 }
 
 // One frame's result. Pixel coordinates follow OpenCV (centre of the top-left pixel (0, 0)).

@@ -20,7 +20,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 
 namespace lander {
 
@@ -40,11 +40,11 @@ struct RingSet {
 
 template <class V>
 void visit_fields(V& v, RingSet& p) {
-  v("id", p.id);
-  v("centre_m", p.centre_P_m);
-  v("outer_radius_m", p.outer_radius_m);
-  v("inner_radius_m", p.inner_radius_m);
-  v("colour_rgb", p.colour_rgb);
+  v("id", p.id, range::any, "", "identity, 0 = centre");
+  v("centre_m", p.centre_P_m, range::any, "m", "centre in P");
+  v("outer_radius_m", p.outer_radius_m, range::positive, "m", "outer circle radius");
+  v("inner_radius_m", p.inner_radius_m, range::positive, "m", "inner circle radius");
+  v("colour_rgb", p.colour_rgb, range::any, "", "annulus colour, 0..1");
 }
 
 struct CodePatternParams {
@@ -59,11 +59,14 @@ struct CodePatternParams {
 
 template <class V>
 void visit_fields(V& v, CodePatternParams& p) {
-  v("cells", p.cells);
-  v("cell_m", p.cell_m);
-  v("window", p.window);
-  v("seed", p.seed);
-  v("rotation_unique", p.rotation_unique);
+  v("cells", p.cells, range::non_negative.because("0 = no code pattern"), "",
+    "cells per side of the square code map");
+  v("cell_m", p.cell_m, range::positive, "m", "cell side");
+  v("window", p.window, range::closed(2, 6), "",
+    "b: every b x b window is unique (seed 001, b = 5)");
+  v("seed", p.seed, range::any, "", "seed of the growth algorithm (deterministic map)");
+  v("rotation_unique", p.rotation_unique, range::any, "",
+    "windows also unique under 90-degree rotations");
 }
 
 struct TargetGeometry {
@@ -84,10 +87,10 @@ struct TargetGeometry {
 
 template <class V>
 void visit_fields(V& v, TargetGeometry& p) {
-  v("platform_size_m", p.platform_size_m);
-  v("platform_thickness_m", p.platform_thickness_m);
-  v("texture_px", p.texture_px);
-  v("background_rgb", p.background_rgb);
+  v("platform_size_m", p.platform_size_m, range::any, "m", "top surface extent along P x and y");
+  v("platform_thickness_m", p.platform_thickness_m, range::positive, "m", "plate thickness");
+  v("texture_px", p.texture_px, range::closed(256, 8192), "px", "texture side");
+  v("background_rgb", p.background_rgb, range::any, "", "");
   v.list("ring_sets", p.rings);
   v.nested("code_pattern", p.code);
 }

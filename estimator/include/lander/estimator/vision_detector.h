@@ -29,9 +29,9 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
-#include "lander/estimator/state.h"
+#include "lander/core/state.h"
 #include "lander/estimator/target.h"
-#include "lander/estimator/types.h"
+#include "lander/core/types.h"
 #include "lander/estimator/vision_code.h"
 #include "lander/estimator/vision_conic.h"
 #include "lander/estimator/vision_params.h"

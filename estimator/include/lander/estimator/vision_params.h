@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 
 namespace lander {
 
@@ -216,87 +216,173 @@ struct VisionParams {
   void validate() const;
 };
 
+// VisionParams' keys: segmentation, ellipse fitting, the shadow pass, ring identities.
+template <class V>
+void visit_segmentation_fields(V& v, VisionParams& p) {
+  v("gaussian_sigma_px", p.gaussian_sigma_px, range::closed(0, 10), "px",
+    "Gaussian pre-filter sigma");
+  v("adaptive_threshold", p.adaptive_threshold, range::any, "",
+    "local (adaptive mean) threshold instead of global Otsu");
+  v("adaptive_block_px", p.adaptive_block_px, range::any, "px", "adaptive threshold window side");
+  v("adaptive_offset", p.adaptive_offset, range::any, "",
+    "adaptive threshold offset below the local mean");
+  v("canny_edges", p.canny_edges, range::any, "",
+    "Canny + close on the binary image before contours");
+  v("close_kernel_px", p.close_kernel_px, range::closed(1, 15), "px",
+    "morphological close kernel side");
+  v("min_contour_points", p.min_contour_points, range::at_least(6).because("an ellipse needs 5"), "px",
+    "contours shorter than this are ignored");
+  v("min_axis_px", p.min_axis_px, range::positive, "px", "smallest accepted ellipse semi-axis");
+  v("min_axis_ratio", p.min_axis_ratio, range::open(0, 1), "",
+    "minor/major semi-axis ratio floor (about 81 deg tilt)");
+  v("max_contour_fit_rms_px", p.max_contour_fit_rms_px, range::positive, "px",
+    "pixel-contour ellipse fit RMS gate");
+  v("edge_samples", p.edge_samples, range::closed(12, 1024), "",
+    "edge points sampled around each ellipse");
+  v("edge_search_px", p.edge_search_px, range::closed(1, 20), "px",
+    "half length of the normal profile searched");
+  v("refine_iterations", p.refine_iterations, range::closed(1, 10), "",
+    "resample-and-refit passes");
+  v("max_edge_fit_rms_px", p.max_edge_fit_rms_px, range::positive, "px",
+    "sub-pixel edge fit RMS gate");
+  v("edge_blur_sigma_px", p.edge_blur_sigma_px, range::closed(0, 10), "px",
+    "camera blur (optics, defocus) sigma beyond the pixel box");
+  v("guided_inner_search", p.guided_inner_search, range::any, "",
+    "look for a missing inner circle at each model ratio");
+  v("shadow_pass", p.shadow_pass, range::any, "", "shadow pass: segment again at shadow_levels");
+  v("shadow_levels", p.shadow_levels, range::any, "", "threshold levels of the shadow pass");
+  v("shadow_split_ratio", p.shadow_split_ratio, range::greater_than(1), "",
+    "shadow pass: around one ellipse");
+  v("max_centre_offset_ratio", p.max_centre_offset_ratio, range::positive, "",
+    "|c_outer - c_inner| / inner minor axis");
+  v("harmonic_tol_px", p.harmonic_tol_px, range::positive, "px",
+    "harmonic-ratio recursion stops below this step");
+  v("harmonic_max_iter", p.harmonic_max_iter, range::at_least(2), "",
+    "harmonic-ratio recursion iteration cap");
+  v("ratio_tol", p.ratio_tol, range::open(0, 0.5), "",
+    "|r/R measured - r/R model| for a ring identity");
+  v("min_rings", p.min_rings, range::at_least(4).because("planar PnP needs four points"), "",
+    "identified centres needed for a pose (planar PnP)");
+  v("three_ring_pose", p.three_ring_pose, range::any, "", "P3P pose from exactly three identified sets");
+  v("max_centre_reproj_px", p.max_centre_reproj_px, range::positive, "px",
+    "centre outlier gate after the initial PnP");
+  v("max_centre_reproj_fraction", p.max_centre_reproj_fraction, range::closed(0, 0.1), "",
+    "The centre gate also grows with the ring sets' extent in the image");
+}
+
+// ... the fallback passes (unfiltered, layout, zoom, platform), the rotation check, blur.
+template <class V>
+void visit_fallback_passes_fields(V& v, VisionParams& p) {
+  v("unfiltered_pass", p.unfiltered_pass, range::any, "", "unfiltered pass: search again without the pre-filter");
+  v("unfiltered_max_minor_px", p.unfiltered_max_minor_px, range::positive, "px",
+    "an ellipse counts as small below this minor semi-axis");
+  v("unfiltered_min_ellipses", p.unfiltered_min_ellipses, range::non_negative, "",
+    "small ellipses needed to try the pass");
+  v("layout_identification", p.layout_identification, range::any, "",
+    "identify sets by the hexagon layout");
+  v("layout_ratio_tol", p.layout_ratio_tol, range::open(0, 0.5), "", "mean |ratio - model| of a layout identification");
+  v("layout_max_ratio_bias", p.layout_max_ratio_bias, range::closed_open(0, 0.5), "",
+    "largest common ratio bias a layout removes");
+  v("layout_ratio_margin", p.layout_ratio_margin, range::non_negative, "",
+    "another identity whose mean ratio error is within this of the best");
+  v("layout_min_ratio_sets", p.layout_min_ratio_sets, range::at_least(1).because("the ratios decide the rotation"), "",
+    "measured ratios (inner circles found) needed");
+  v("layout_position_tol", p.layout_position_tol, range::open(0, 0.5).because("neighbouring sets are one hexagon radius apart"), "",
+    "a set's rectified centre within this fraction of its distance");
+  v("layout_photometric_max_minor_px", p.layout_photometric_max_minor_px, range::closed(0, 64), "px",
+    "a candidate whose minor semi-axis is at most this gives the layout");
+  v("layout_size_tol", p.layout_size_tol, range::open_closed(0, 1), "",
+    "rectified outer circle within a factor 1 + this of the model's");
+  v("zoom_pass", p.zoom_pass, range::any, "", "zoom pass: search small candidates upscaled");
+  v("zoom_max_axis_px", p.zoom_max_axis_px, range::positive, "px",
+    "ellipses up to this semi-major axis seed a region");
+  v("zoom_max_region_px", p.zoom_max_region_px, range::closed(16, 2048), "px",
+    "regions larger than this (px, either side) are skipped");
+  v("zoom_max_regions", p.zoom_max_regions, range::closed(0, 16), "",
+    "at most this many regions a frame");
+  v("platform_pass", p.platform_pass, range::any, "", "platform pass: search the platform's square outline");
+  v("platform_min_area_px", p.platform_min_area_px, range::at_least(16), "px",
+    "smallest top taken as a quadrilateral");
+  v("platform_max_quads", p.platform_max_quads, range::closed(0, 16), "",
+    "at most this many quadrilaterals a frame");
+  v("rotation_check", p.rotation_check, range::any, "",
+    "every pose: the outer sets' radial profiles in the frame must fit");
+  v("rotation_check_margin", p.rotation_check_margin, range::closed_open(0, 1), "",
+    "by at least this");
+  v("predict_blur", p.predict_blur, range::any, "",
+    "the flight stack predicts each frame's blur from its own motion");
+  v("deblur_min_px", p.deblur_min_px, range::closed(0, 200), "px",
+    "a predicted blur at least this long gives a frame with no pose");
+  v("deblur_noise_ratio", p.deblur_noise_ratio, range::open_closed(0, 1), "",
+    "Wiener constant K (noise-to-signal power)");
+}
+
+// ... pose refinement and gates, tracking, the code map, combining poses.
+template <class V>
+void visit_pose_and_code_fields(V& v, VisionParams& p) {
+  v("refine_max_iter", p.refine_max_iter, range::non_negative, "",
+    "Levenberg-Marquardt iteration cap");
+  v("refine_points_per_ellipse", p.refine_points_per_ellipse, range::at_least(6), "",
+    "edge points per ellipse in the conic cost");
+  v("max_reproj_err_px", p.max_reproj_err_px, range::positive, "px",
+    "eq. 30 RMS above this rejects the frame");
+  v("max_edge_residual_px", p.max_edge_residual_px, range::positive, "px",
+    "conic-cost RMS above this rejects the frame");
+  v("max_reproj_fraction", p.max_reproj_fraction, range::closed(0, 0.05), "",
+    "Both gates above also grow with the ring sets' extent in the image");
+  v("rho_max", p.rho_max, range::open_closed(0, 1), "",
+    "reliability threshold on rho (dimensionless)");
+  v("keyframe_reset_after", p.keyframe_reset_after, range::non_negative, "",
+    "after this many consecutive rejections");
+  v("tracking", p.tracking, range::any, "", "search a predicted region first");
+  v("roi_margin", p.roi_margin, range::non_negative, "",
+    "ROI grows by this fraction of its size on each side");
+  v("max_frames_without_detection", p.max_frames_without_detection, range::non_negative, "",
+    "drop the prediction after this many misses");
+  v("code_enabled", p.code_enabled, range::any, "",
+    "localise on the code map when its cells are in view");
+  v("code_min_cell_px", p.code_min_cell_px, range::at_least(4), "px",
+    "smallest code cell side read");
+  v("code_threshold_block_px", p.code_threshold_block_px, range::any, "px",
+    "adaptive threshold window");
+  v("code_threshold_offset", p.code_threshold_offset, range::non_negative, "",
+    "grey levels below the local mean counted dark");
+  v("code_min_contrast", p.code_min_contrast, range::positive, "",
+    "dark/light cell class means must differ by this");
+  v("code_max_mismatch_fraction", p.code_max_mismatch_fraction, range::closed_open(0, 0.2), "",
+    "disagreeing read cells allowed");
+  v("code_min_score_margin", p.code_min_score_margin, range::at_least(1), "",
+    "runner-up placement must score this much lower");
+  v("code_min_corners", p.code_min_corners, range::at_least(4).because("planar PnP"), "",
+    "matched sub-pixel corners needed for the PnP");
+  v("code_max_reproj_px", p.code_max_reproj_px, range::positive, "px",
+    "corner reprojection RMS gate after refinement");
+  v("code_max_reproj_fraction", p.code_max_reproj_fraction, range::closed(0, 0.02), "",
+    "The gate also grows with the code's size in the image");
+  v("code_local_white", p.code_local_white, range::any, "",
+    "code map: local white levels per cell");
+  v("code_search_region", p.code_search_region, range::any, "",
+    "code map: search where the pose puts it");
+  v("code_lattice_from_pose", p.code_lattice_from_pose, range::any, "",
+    "code map: grid lines from the pose");
+  v("centre_ring_pose", p.centre_ring_pose, range::any, "",
+    "pose from the central set when fewer than min_rings sets");
+  v("tracked_yaw_sigma_rad", p.tracked_yaw_sigma_rad, range::positive, "rad",
+    "yaw prior taken from the tracked pose");
+  v("tracked_max_jump_m", p.tracked_max_jump_m, range::non_negative, "m", "largest jump of a central-pair pose from the track");
+  v("tracked_max_jump_ratio", p.tracked_max_jump_ratio, range::non_negative, "",
+    "within this + ratio x the tracked range of the tracked pose");
+  v("combine_max_angle_rad", p.combine_max_angle_rad, range::positive, "rad",
+    "ring and code poses must agree this well");
+  v("combine_max_offset_ratio", p.combine_max_offset_ratio, range::positive, "",
+    "... and to this fraction of the distance");
+}
+
 template <class V>
 void visit_fields(V& v, VisionParams& p) {
-  v("gaussian_sigma_px", p.gaussian_sigma_px);
-  v("adaptive_threshold", p.adaptive_threshold);
-  v("adaptive_block_px", p.adaptive_block_px);
-  v("adaptive_offset", p.adaptive_offset);
-  v("canny_edges", p.canny_edges);
-  v("close_kernel_px", p.close_kernel_px);
-  v("min_contour_points", p.min_contour_points);
-  v("min_axis_px", p.min_axis_px);
-  v("min_axis_ratio", p.min_axis_ratio);
-  v("max_contour_fit_rms_px", p.max_contour_fit_rms_px);
-  v("edge_samples", p.edge_samples);
-  v("edge_search_px", p.edge_search_px);
-  v("refine_iterations", p.refine_iterations);
-  v("max_edge_fit_rms_px", p.max_edge_fit_rms_px);
-  v("edge_blur_sigma_px", p.edge_blur_sigma_px);
-  v("guided_inner_search", p.guided_inner_search);
-  v("shadow_pass", p.shadow_pass);
-  v("shadow_levels", p.shadow_levels);
-  v("shadow_split_ratio", p.shadow_split_ratio);
-  v("max_centre_offset_ratio", p.max_centre_offset_ratio);
-  v("harmonic_tol_px", p.harmonic_tol_px);
-  v("harmonic_max_iter", p.harmonic_max_iter);
-  v("ratio_tol", p.ratio_tol);
-  v("min_rings", p.min_rings);
-  v("three_ring_pose", p.three_ring_pose);
-  v("max_centre_reproj_px", p.max_centre_reproj_px);
-  v("max_centre_reproj_fraction", p.max_centre_reproj_fraction);
-  v("unfiltered_pass", p.unfiltered_pass);
-  v("unfiltered_max_minor_px", p.unfiltered_max_minor_px);
-  v("unfiltered_min_ellipses", p.unfiltered_min_ellipses);
-  v("layout_identification", p.layout_identification);
-  v("layout_ratio_tol", p.layout_ratio_tol);
-  v("layout_max_ratio_bias", p.layout_max_ratio_bias);
-  v("layout_ratio_margin", p.layout_ratio_margin);
-  v("layout_min_ratio_sets", p.layout_min_ratio_sets);
-  v("layout_position_tol", p.layout_position_tol);
-  v("layout_photometric_max_minor_px", p.layout_photometric_max_minor_px);
-  v("layout_size_tol", p.layout_size_tol);
-  v("zoom_pass", p.zoom_pass);
-  v("zoom_max_axis_px", p.zoom_max_axis_px);
-  v("zoom_max_region_px", p.zoom_max_region_px);
-  v("zoom_max_regions", p.zoom_max_regions);
-  v("platform_pass", p.platform_pass);
-  v("platform_min_area_px", p.platform_min_area_px);
-  v("platform_max_quads", p.platform_max_quads);
-  v("rotation_check", p.rotation_check);
-  v("rotation_check_margin", p.rotation_check_margin);
-  v("predict_blur", p.predict_blur);
-  v("deblur_min_px", p.deblur_min_px);
-  v("deblur_noise_ratio", p.deblur_noise_ratio);
-  v("refine_max_iter", p.refine_max_iter);
-  v("refine_points_per_ellipse", p.refine_points_per_ellipse);
-  v("max_reproj_err_px", p.max_reproj_err_px);
-  v("max_edge_residual_px", p.max_edge_residual_px);
-  v("max_reproj_fraction", p.max_reproj_fraction);
-  v("rho_max", p.rho_max);
-  v("keyframe_reset_after", p.keyframe_reset_after);
-  v("tracking", p.tracking);
-  v("roi_margin", p.roi_margin);
-  v("max_frames_without_detection", p.max_frames_without_detection);
-  v("code_enabled", p.code_enabled);
-  v("code_min_cell_px", p.code_min_cell_px);
-  v("code_threshold_block_px", p.code_threshold_block_px);
-  v("code_threshold_offset", p.code_threshold_offset);
-  v("code_min_contrast", p.code_min_contrast);
-  v("code_max_mismatch_fraction", p.code_max_mismatch_fraction);
-  v("code_min_score_margin", p.code_min_score_margin);
-  v("code_min_corners", p.code_min_corners);
-  v("code_max_reproj_px", p.code_max_reproj_px);
-  v("code_max_reproj_fraction", p.code_max_reproj_fraction);
-  v("code_local_white", p.code_local_white);
-  v("code_search_region", p.code_search_region);
-  v("code_lattice_from_pose", p.code_lattice_from_pose);
-  v("centre_ring_pose", p.centre_ring_pose);
-  v("tracked_yaw_sigma_rad", p.tracked_yaw_sigma_rad);
-  v("tracked_max_jump_m", p.tracked_max_jump_m);
-  v("tracked_max_jump_ratio", p.tracked_max_jump_ratio);
-  v("combine_max_angle_rad", p.combine_max_angle_rad);
-  v("combine_max_offset_ratio", p.combine_max_offset_ratio);
+  visit_segmentation_fields(v, p);
+  visit_fallback_passes_fields(v, p);
+  visit_pose_and_code_fields(v, p);
 }
 
 }  // namespace lander

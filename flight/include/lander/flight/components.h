@@ -26,8 +26,8 @@
 
 #include "lander/estimator/altitude_fusion.h"
 #include "lander/estimator/navigation.h"
-#include "lander/estimator/sample_screen.h"
-#include "lander/estimator/state.h"
+#include "lander/core/sample_screen.h"
+#include "lander/core/state.h"
 #include "lander/flight/flight_config.h"
 #include "lander/flight/flight_software.h"
 

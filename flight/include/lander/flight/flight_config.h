@@ -12,9 +12,9 @@
 #include "lander/estimator/altitude_fusion.h"
 #include "lander/estimator/navigation.h"
 #include "lander/estimator/path_extractor.h"
-#include "lander/estimator/params_io.h"
-#include "lander/estimator/sample_screen.h"
-#include "lander/estimator/types.h"
+#include "lander/core/params_io.h"
+#include "lander/core/sample_screen.h"
+#include "lander/core/types.h"
 #include "lander/estimator/vision_params.h"
 
 namespace lander::flight {
@@ -75,19 +75,27 @@ struct FlightConfig {
 
 template <class V>
 void visit_fields(V& v, FlightConfig& p) {
-  v("file", p.file);
-  v("target", p.target_path);
+  v("file", p.file, range::any, "", "The parameter file these values start from");
+  v("target", p.target_path, range::any, "", "target YAML");
   v.nested("camera", p.camera);
   v.nested("mount", p.mount);
   v.nested("estimator", p.estimator);
   v.nested("controller", p.controller);
-  v("plugin", p.plugin);
-  v("python", p.python);
-  v("plugin_config", p.plugin_config);
+  v("plugin", p.plugin, range::any, "", "Which flight software flies (flight_plugin.h)");
+  v("python", p.python, range::any, "", "Or a flight software written in Python");
+  v("plugin_config", p.plugin_config, range::any, "",
+    "The plugin's (or the Python class's) own configuration");
 }
 
 // The default flight parameter file, models/flight.yaml.
 std::string default_flight_file();
+
+// The in-class defaults as the text of models/flight.yaml: every key of the flight
+// configuration (not which software flies, nor the file names) with its description, unit
+// and range as a comment. `lander flight-config --defaults` prints it; regenerate the file
+// with `build/lander flight-config --defaults > models/flight.yaml` (tests/flight checks
+// that the file is this text).
+std::string flight_defaults_yaml();
 
 // The flight parameter file a scenario's `flight.file` value names: empty -> models/flight.yaml;
 // a relative path is taken from the scenario file's folder. Returns an absolute path.

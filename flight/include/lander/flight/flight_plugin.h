@@ -27,7 +27,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 #include "lander/flight/flight_software.h"
 
 extern "C" {

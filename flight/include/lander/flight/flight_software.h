@@ -60,9 +60,9 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "lander/estimator/sample_screen.h"
-#include "lander/estimator/state.h"
-#include "lander/estimator/types.h"
+#include "lander/core/sample_screen.h"
+#include "lander/core/state.h"
+#include "lander/core/types.h"
 
 namespace lander::flight {
 

@@ -20,7 +20,7 @@
 #include "lander/estimator/altitude_fusion.h"
 #include "lander/estimator/navigation.h"
 #include "lander/estimator/path_extractor.h"
-#include "lander/estimator/sample_screen.h"
+#include "lander/core/sample_screen.h"
 #include "lander/estimator/vision_detector.h"
 #include "lander/flight/components.h"
 #include "lander/flight/flight_config.h"

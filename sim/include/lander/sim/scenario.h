@@ -11,7 +11,7 @@
 
 #include <Eigen/Core>
 
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 #include "lander/flight/flight_config.h"
 #include "lander/sim/sensors/camera.h"
 #include "lander/sim/plant/ground_effect.h"
@@ -35,9 +35,9 @@ struct Waypoint {
 
 template <class V>
 void visit_fields(V& v, Waypoint& p) {
-  v("t_s", p.t_s);
-  v("p_m", p.p_W_m);
-  v("rpy_deg", p.rpy_rad, M_PI / 180.0);
+  v("t_s", p.t_s, range::any, "s", "");
+  v("p_m", p.p_W_m, range::any, "m", "body position in W");
+  v("rpy_deg", p.rpy_rad, range::any, "deg", "roll, pitch, yaw", M_PI / 180.0);
 }
 
 // The simulated vehicle as it is (truth side): mass and inertia (applied to the MJCF body),
@@ -53,8 +53,7 @@ struct VehicleModelParams {
   std::vector<double> torque_scale{1, 1, 1, 1, 1, 1};  ///< rotor k's kQ is rotor.kQ x this
   std::vector<double> tau_scale{1, 1, 1, 1, 1, 1};     ///< rotor k's lag is rotor.tau_s x this
   void validate() const {
-    require(mass_kg > 0 && mass_kg < 100, "mass_kg", "must be in (0, 100) kg");
-    require(inertia_kgm2.minCoeff() > 0, "inertia_kgm2", "all entries must be > 0");
+    check_fields(*this);
     validate_nested("rotor", rotor);
     validate_nested("ground_effect", ground_effect);
     for (auto [key, v] : {std::pair<const char*, const std::vector<double>*>{"thrust_scale", &thrust_scale},
@@ -68,13 +67,13 @@ struct VehicleModelParams {
 
 template <class V>
 void visit_fields(V& v, VehicleModelParams& p) {
-  v("mass_kg", p.mass_kg);
-  v("inertia_kgm2", p.inertia_kgm2);
+  v("mass_kg", p.mass_kg, range::open(0, 100), "kg", "total mass");
+  v("inertia_kgm2", p.inertia_kgm2, range::positive, "kg m^2", "diagonal inertia in B");
   v.nested("rotor", p.rotor);
   v.nested("ground_effect", p.ground_effect);
-  v("thrust_scale", p.thrust_scale);
-  v("torque_scale", p.torque_scale);
-  v("tau_scale", p.tau_scale);
+  v("thrust_scale", p.thrust_scale, range::any, "", "rotor k's kT is rotor.kT x this");
+  v("torque_scale", p.torque_scale, range::any, "", "rotor k's kQ is rotor.kQ x this");
+  v("tau_scale", p.tau_scale, range::any, "", "rotor k's lag is rotor.tau_s x this");
 }
 
 struct VehicleSetup {
@@ -88,9 +87,9 @@ struct VehicleSetup {
 
 template <class V>
 void visit_fields(V& v, VehicleSetup& p) {
-  v("control", p.control);
-  v("start_m", p.start_p_W_m);
-  v("start_yaw_deg", p.start_yaw_rad, M_PI / 180.0);
+  v("control", p.control, range::any, "", "closed_loop | kinematic (scripted waypoints)");
+  v("start_m", p.start_p_W_m, range::any, "m", "closed_loop start position");
+  v("start_yaw_deg", p.start_yaw_rad, range::any, "deg", "closed_loop start yaw", M_PI / 180.0);
   v.list("waypoints", p.waypoints);
   v.nested("model", p.model);
 }
@@ -106,16 +105,15 @@ struct ComputerParams {
   double vision_latency_s{0.050};  ///< processing latency of a frame (s); YAML vision_latency_ms
   bool measured_latency{false};    ///< use the measured processing time instead (not
                                    ///< deterministic: depends on the machine's load)
-  void validate() const {
-    require(vision_latency_s >= 0 && vision_latency_s < 1.0, "vision_latency_ms",
-            "must be in [0, 1000) ms");
-  }
+  void validate() const { check_fields(*this); }
 };
 
 template <class V>
 void visit_fields(V& v, ComputerParams& p) {
-  v("vision_latency_ms", p.vision_latency_s, 1e-3);
-  v("measured_latency", p.measured_latency);
+  v("vision_latency_ms", p.vision_latency_s, range::closed_open(0, 1000), "ms",
+    "processing latency of a frame", 1e-3);
+  v("measured_latency", p.measured_latency, range::any, "",
+    "use the measured processing time instead");
 }
 
 // Injected faults. Times are sim times (s); a time < 0 turns the fault off.
@@ -158,10 +156,7 @@ struct FaultParams {
                              ///< loop forever): for wall-clock timeouts
 
   void validate() const {
-    require(gps_step_duration_s >= 0, "gps_step_duration_s", "must be >= 0");
-    require(ultrasonic_garbage_duration_s >= 0, "ultrasonic_garbage_duration_s",
-            "must be >= 0");
-    require(vision_outlier_frames >= 0, "vision_outlier_frames", "must be >= 0");
+    check_fields(*this);
     for (auto [key, v] : {std::pair<const char*, double>{"nan_imu_duration_s", nan_imu_duration_s},
                           {"nan_baro_duration_s", nan_baro_duration_s},
                           {"absurd_gps_duration_s", absurd_gps_duration_s},
@@ -180,29 +175,36 @@ inline bool fault_active(double t_s, double start_s, double duration_s) {
 
 template <class V>
 void visit_fields(V& v, FaultParams& p) {
-  v("gps_step_t_s", p.gps_step_t_s);
-  v("gps_step_duration_s", p.gps_step_duration_s);
-  v("gps_step_m", p.gps_step_W_m);
-  v("ultrasonic_garbage_t_s", p.ultrasonic_garbage_t_s);
-  v("ultrasonic_garbage_duration_s", p.ultrasonic_garbage_duration_s);
-  v("vision_outlier_t_s", p.vision_outlier_t_s);
-  v("vision_outlier_frames", p.vision_outlier_frames);
-  v("vision_outlier_m", p.vision_outlier_m);
-  v("nan_imu_t_s", p.nan_imu_t_s);
-  v("nan_imu_duration_s", p.nan_imu_duration_s);
-  v("nan_baro_t_s", p.nan_baro_t_s);
-  v("nan_baro_duration_s", p.nan_baro_duration_s);
-  v("absurd_gps_t_s", p.absurd_gps_t_s);
-  v("absurd_gps_duration_s", p.absurd_gps_duration_s);
-  v("nan_ultrasonic_t_s", p.nan_ultrasonic_t_s);
-  v("nan_ultrasonic_duration_s", p.nan_ultrasonic_duration_s);
-  v("nan_magnetometer_t_s", p.nan_magnetometer_t_s);
-  v("nan_magnetometer_duration_s", p.nan_magnetometer_duration_s);
-  v("nan_vision_t_s", p.nan_vision_t_s);
-  v("nan_vision_duration_s", p.nan_vision_duration_s);
-  v("diverge_t_s", p.diverge_t_s);
-  v("abort_t_s", p.abort_t_s);
-  v("hang_t_s", p.hang_t_s);
+  v("gps_step_t_s", p.gps_step_t_s, range::any, "s", "start of a GPS position step");
+  v("gps_step_duration_s", p.gps_step_duration_s, range::non_negative, "s", "duration of the GPS step");
+  v("gps_step_m", p.gps_step_W_m, range::any, "m", "GPS position step");
+  v("ultrasonic_garbage_t_s", p.ultrasonic_garbage_t_s, range::any, "s",
+    "start of an ultrasonic garbage burst");
+  v("ultrasonic_garbage_duration_s", p.ultrasonic_garbage_duration_s, range::non_negative, "s",
+    "duration of the burst");
+  v("vision_outlier_t_s", p.vision_outlier_t_s, range::any, "s",
+    "first vision frame replaced by an outlier");
+  v("vision_outlier_frames", p.vision_outlier_frames, range::non_negative, "",
+    "consecutive outlier frames");
+  v("vision_outlier_m", p.vision_outlier_m, range::any, "m",
+    "outlier: platform pose shifted along z_C");
+  v("nan_imu_t_s", p.nan_imu_t_s, range::any, "s", "IMU: gyro and accelerometer NaN");
+  v("nan_imu_duration_s", p.nan_imu_duration_s, range::any, "s", "");
+  v("nan_baro_t_s", p.nan_baro_t_s, range::any, "s", "barometer: pressure NaN");
+  v("nan_baro_duration_s", p.nan_baro_duration_s, range::any, "s", "");
+  v("absurd_gps_t_s", p.absurd_gps_t_s, range::any, "s", "GPS: valid fixes 1e9 m away at 1e6 m/s");
+  v("absurd_gps_duration_s", p.absurd_gps_duration_s, range::any, "s", "");
+  v("nan_ultrasonic_t_s", p.nan_ultrasonic_t_s, range::any, "s", "ultrasonic: range NaN");
+  v("nan_ultrasonic_duration_s", p.nan_ultrasonic_duration_s, range::any, "s", "");
+  v("nan_magnetometer_t_s", p.nan_magnetometer_t_s, range::any, "s", "magnetometer: field NaN");
+  v("nan_magnetometer_duration_s", p.nan_magnetometer_duration_s, range::any, "s", "");
+  v("nan_vision_t_s", p.nan_vision_t_s, range::any, "s",
+    "vision: results claim a keyframe detection with a NaN pose");
+  v("nan_vision_duration_s", p.nan_vision_duration_s, range::any, "s", "");
+  v("diverge_t_s", p.diverge_t_s, range::any, "s",
+    "a NaN is written into the vehicle's physics state at this time");
+  v("abort_t_s", p.abort_t_s, range::any, "s", "the process calls std::abort() at this time");
+  v("hang_t_s", p.hang_t_s, range::any, "s", "the process stops making progress at this time");
 }
 
 struct VideoParams {
@@ -212,25 +214,25 @@ struct VideoParams {
   int camera_scale_div{2};        ///< camera.mp4 is the camera image downscaled by this
   bool overlays{true};            ///< draw fitted ellipses, ring ids, mode, altitude
   void validate() const {
+    check_fields(*this);
     // H.264 (yuv420p) needs even frame sizes; the chase view renders into the offscreen
     // buffer, which the camera (at most kMaxRenderSidePx) also uses.
     require(chase_width_px >= 64 && chase_width_px <= 1280 && chase_width_px % 2 == 0,
             "chase_width_px", "must be even and in [64, 1280]");
     require(chase_height_px >= 64 && chase_height_px <= 720 && chase_height_px % 2 == 0,
             "chase_height_px", "must be even and in [64, 720]");
-    require(chase_distance_m > 0, "chase_distance_m", "must be > 0");
-    require(camera_scale_div >= 1 && camera_scale_div <= 8, "camera_scale_div",
-            "must be in [1, 8]");
   }
 };
 
 template <class V>
 void visit_fields(V& v, VideoParams& p) {
-  v("chase_width_px", p.chase_width_px);
-  v("chase_height_px", p.chase_height_px);
-  v("chase_distance_m", p.chase_distance_m);
-  v("camera_scale_div", p.camera_scale_div);
-  v("overlays", p.overlays);
+  v("chase_width_px", p.chase_width_px, range::any, "px", "chase view size");
+  v("chase_height_px", p.chase_height_px, range::any, "px", "");
+  v("chase_distance_m", p.chase_distance_m, range::positive, "m",
+    "chase camera distance behind/above the vehicle");
+  v("camera_scale_div", p.camera_scale_div, range::closed(1, 8), "",
+    "camera.mp4 is the camera image downscaled by this");
+  v("overlays", p.overlays, range::any, "", "draw fitted ellipses");
 }
 
 struct Scenario {
@@ -268,11 +270,11 @@ struct Scenario {
 
 template <class V>
 void visit_fields(V& v, Scenario& p) {
-  v("name", p.name);
-  v("description", p.description);
-  v("seed", p.seed);
-  v("duration_s", p.duration_s);
-  v("expect_outcome", p.expect_outcome);
+  v("name", p.name, range::any, "", "");
+  v("description", p.description, range::any, "", "");
+  v("seed", p.seed, range::any, "", "derives every random stream of the run");
+  v("duration_s", p.duration_s, range::open_closed(0, 3600), "s", "maximum simulated time");
+  v("expect_outcome", p.expect_outcome, range::any, "", "the outcome `lander run` exits 0 for");
   v.nested("world", p.world);
   v.nested("camera", p.camera);
   v.nested("render", p.render);
@@ -284,7 +286,8 @@ void visit_fields(V& v, Scenario& p) {
   v.nested("flight", p.flight);
   v.nested("faults", p.faults);
   v.nested("video", p.video);
-  v("trace_rate_hz", p.trace_rate_hz);
+  v("trace_rate_hz", p.trace_rate_hz, range::open_closed(0, 1000), "Hz",
+    "rows per second in trace.csv");
 }
 
 // Smallest side of camera.mp4 (px) that the video writer accepts.

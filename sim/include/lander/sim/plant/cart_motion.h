@@ -7,7 +7,7 @@
 
 #include <Eigen/Core>
 
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 #include "lander/sim/plant/route.h"
 
 namespace lander::sim {
@@ -34,18 +34,22 @@ struct CartMotionParams {
 
 template <class V>
 void visit_fields(V& v, CartMotionParams& p) {
-  v("path", p.path);
-  v("speed_profile", p.speed_profile);
-  v("start_m", p.start_m);
-  v("heading_deg", p.heading_rad, M_PI / 180.0);
-  v("speed_mps", p.speed_mps);
-  v("turn_radius_m", p.turn_radius_m);
-  v("accel_mps2", p.accel_mps2);
-  v("go_s", p.go_s);
-  v("stop_s", p.stop_s);
-  v("start_delay_s", p.start_delay_s);
-  v("route_start_m", p.route_start_m);
-  v("platform_height_m", p.platform_height_m);
+  v("path", p.path, range::any, "", "static | straight | arc | route");
+  v("speed_profile", p.speed_profile, range::any, "", "constant | stop_and_go");
+  v("start_m", p.start_m, range::any, "m", "platform centre at t");
+  v("heading_deg", p.heading_rad, range::any, "deg", "initial heading from W x", M_PI / 180.0);
+  v("speed_mps", p.speed_mps, range::closed(0, 5), "m/s", "cruise speed");
+  v("turn_radius_m", p.turn_radius_m, range::any, "m", "arc radius; > 0 turns left");
+  v("accel_mps2", p.accel_mps2, range::open_closed(0, 5), "m/s^2",
+    "stop_and_go acceleration and braking");
+  v("go_s", p.go_s, range::non_negative, "s", "stop_and_go cruise time per cycle");
+  v("stop_s", p.stop_s, range::non_negative, "s", "stop_and_go standstill time per cycle");
+  v("start_delay_s", p.start_delay_s, range::non_negative, "s", "time before the cart starts");
+  v("route_start_m", p.route_start_m, range::non_negative, "m",
+    "path route: arc length of the start");
+  v("platform_height_m", p.platform_height_m,
+    range::closed(0.4, 2).because("the platform sits on the cart's posts"), "m",
+    "true height of the platform's top above the ground");
 }
 
 // Cart reference: q = (x, y, yaw) of the platform centre in W and its first two derivatives.

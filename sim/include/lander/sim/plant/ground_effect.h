@@ -20,7 +20,7 @@
 // This shifts the curve by at most 0.7 % inside the band.
 #pragma once
 
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 
 namespace lander::sim {
 
@@ -31,18 +31,18 @@ struct GroundEffectParams {
   double z_max_over_R{3.0};     ///< validity height / R (-); factor is 1 above it
 
   void validate() const {
-    require(radius_m > 0, "radius_m", "must be > 0");
-    require(z_min_over_R > 0.25, "z_min_over_R", "must be > 0.25 (Cheeseman-Bennett pole)");
+    check_fields(*this);
     require(z_max_over_R > z_min_over_R, "z_max_over_R", "must be > z_min_over_R");
   }
 };
 
 template <class V>
 void visit_fields(V& v, GroundEffectParams& p) {
-  v("enabled", p.enabled);
-  v("radius_m", p.radius_m);
-  v("z_min_over_R", p.z_min_over_R);
-  v("z_max_over_R", p.z_max_over_R);
+  v("enabled", p.enabled, range::any, "", "");
+  v("radius_m", p.radius_m, range::positive, "m", "rotor radius R");
+  v("z_min_over_R", p.z_min_over_R, range::greater_than(0.25).because("Cheeseman-Bennett pole"), "",
+    "lower clip of z/R");
+  v("z_max_over_R", p.z_max_over_R, range::any, "", "validity height / R");
 }
 
 // Thrust factor f >= 1 for a rotor whose plane is height_m above the surface below it.

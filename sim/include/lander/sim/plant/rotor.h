@@ -13,7 +13,7 @@
 
 #include <Eigen/Core>
 
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 
 namespace lander::sim {
 
@@ -31,26 +31,22 @@ struct RotorParams {
   double height_m{0.05};     ///< rotor plane above the centre of mass (m)
 
   void validate() const {
-    require(kT > 0, "kT", "must be > 0");
-    require(kQ >= 0, "kQ", "must be >= 0");
-    require(tau_s > 0, "tau_s", "must be > 0");
-    require(w_min_radps >= 0, "w_min_radps", "must be >= 0");
+    check_fields(*this);
     require(w_max_radps > w_min_radps, "w_max_radps", "must be > w_min_radps");
-    require(radius_m > 0, "radius_m", "must be > 0");
     require(arm_m > radius_m, "arm_m", "must be > radius_m (rotors would overlap the hub)");
   }
 };
 
 template <class V>
 void visit_fields(V& v, RotorParams& p) {
-  v("kT", p.kT);
-  v("kQ", p.kQ);
-  v("tau_s", p.tau_s);
-  v("w_min_radps", p.w_min_radps);
-  v("w_max_radps", p.w_max_radps);
-  v("radius_m", p.radius_m);
-  v("arm_m", p.arm_m);
-  v("height_m", p.height_m);
+  v("kT", p.kT, range::positive, "N/(rad/s)^2", "thrust coefficient");
+  v("kQ", p.kQ, range::non_negative, "N m/(rad/s)^2", "reaction torque coefficient");
+  v("tau_s", p.tau_s, range::positive, "s", "motor time constant");
+  v("w_min_radps", p.w_min_radps, range::non_negative, "rad/s", "lowest rotor speed");
+  v("w_max_radps", p.w_max_radps, range::any, "rad/s", "highest rotor speed");
+  v("radius_m", p.radius_m, range::positive, "m", "rotor radius");
+  v("arm_m", p.arm_m, range::any, "m", "centre of mass to rotor axis");
+  v("height_m", p.height_m, range::any, "m", "rotor plane above the centre of mass");
 }
 
 // Position of rotor k's hub in B (m).

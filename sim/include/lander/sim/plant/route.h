@@ -11,7 +11,7 @@
 
 #include <Eigen/Core>
 
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 
 namespace lander::sim {
 
@@ -24,8 +24,9 @@ struct RouteWaypoint {
 
 template <class V>
 void visit_fields(V& v, RouteWaypoint& p) {
-  v("p_m", p.p_m);
-  v("corner_radius_m", p.corner_radius_m);
+  v("p_m", p.p_m, range::any, "m", "position on the ground");
+  v("corner_radius_m", p.corner_radius_m, range::any, "m",
+    "radius the corner at this waypoint is rounded with");
 }
 
 // A stretch of the centre line where the paint is worn away: [from_m, to_m] of arc length.
@@ -37,8 +38,8 @@ struct RouteGap {
 
 template <class V>
 void visit_fields(V& v, RouteGap& p) {
-  v("from_m", p.from_m);
-  v("to_m", p.to_m);
+  v("from_m", p.from_m, range::any, "m", "");
+  v("to_m", p.to_m, range::any, "m", "");
 }
 
 // A patch of paint of another colour (a distractor): a rectangle on the ground.
@@ -55,10 +56,10 @@ struct PaintPatch {
 
 template <class V>
 void visit_fields(V& v, PaintPatch& p) {
-  v("centre_m", p.centre_m);
-  v("size_m", p.size_m);
-  v("yaw_deg", p.yaw_rad, M_PI / 180.0);
-  v("rgb", p.rgb);
+  v("centre_m", p.centre_m, range::any, "m", "centre in W");
+  v("size_m", p.size_m, range::any, "m", "length along its heading");
+  v("yaw_deg", p.yaw_rad, range::any, "deg", "heading from W x", M_PI / 180.0);
+  v("rgb", p.rgb, range::any, "", "colour");
 }
 
 // Placeholder geoms models/world_route.xml holds for the paint (world.cpp places them).
@@ -80,9 +81,9 @@ struct RouteParams {
 template <class V>
 void visit_fields(V& v, RouteParams& p) {
   v.list("waypoints", p.waypoints);
-  v("corner_radius_m", p.corner_radius_m);
-  v("width_m", p.width_m);
-  v("rgb", p.rgb);
+  v("corner_radius_m", p.corner_radius_m, range::closed(0, 50), "m", "default corner radius");
+  v("width_m", p.width_m, range::closed(0.02, 2.0), "m", "paint width");
+  v("rgb", p.rgb, range::any, "", "paint colour");
   v.list("gaps", p.gaps);
   v.list("paint", p.paint);
 }

@@ -16,7 +16,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 
 namespace lander::sim {
 
@@ -33,10 +33,8 @@ struct WindParams {
   Eigen::Vector3d drag_quadratic_B_Ns2pm2{0.06, 0.06, 0.18};
 
   void validate() const {
+    check_fields(*this);
     require(steady_W_mps.allFinite(), "steady_W_mps", "must be finite");
-    require(gust_std_horizontal_mps >= 0, "gust_std_horizontal_mps", "must be >= 0");
-    require(gust_std_vertical_mps >= 0, "gust_std_vertical_mps", "must be >= 0");
-    require(gust_tau_s > 0, "gust_tau_s", "must be > 0");
     require((drag_linear_B_Nspm.array() >= 0).all(), "drag_linear_B_Nspm", "must be >= 0");
     require((drag_quadratic_B_Ns2pm2.array() >= 0).all(), "drag_quadratic_B_Ns2pm2",
             "must be >= 0");
@@ -45,12 +43,16 @@ struct WindParams {
 
 template <class V>
 void visit_fields(V& v, WindParams& p) {
-  v("steady_W_mps", p.steady_W_mps);
-  v("gust_std_horizontal_mps", p.gust_std_horizontal_mps);
-  v("gust_std_vertical_mps", p.gust_std_vertical_mps);
-  v("gust_tau_s", p.gust_tau_s);
-  v("drag_linear_B_Nspm", p.drag_linear_B_Nspm);
-  v("drag_quadratic_B_Ns2pm2", p.drag_quadratic_B_Ns2pm2);
+  v("steady_W_mps", p.steady_W_mps, range::any, "m/s", "mean wind in W");
+  v("gust_std_horizontal_mps", p.gust_std_horizontal_mps, range::non_negative, "m/s",
+    "stationary gust std");
+  v("gust_std_vertical_mps", p.gust_std_vertical_mps, range::non_negative, "m/s",
+    "stationary gust std");
+  v("gust_tau_s", p.gust_tau_s, range::positive, "s", "gust correlation time");
+  v("drag_linear_B_Nspm", p.drag_linear_B_Nspm, range::any, "",
+    "Linear drag per body axis (N s/m)");
+  v("drag_quadratic_B_Ns2pm2", p.drag_quadratic_B_Ns2pm2, range::any, "",
+    "Quadratic drag per body axis (N s^2/m^2)");
 }
 
 class WindModel {

@@ -11,9 +11,9 @@
 #include <Eigen/Geometry>
 #include <mujoco/mujoco.h>
 
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 #include "lander/estimator/target.h"
-#include "lander/estimator/types.h"
+#include "lander/core/types.h"
 #include "lander/sim/plant/route.h"
 #include "lander/sim/sensors/camera.h"
 
@@ -28,20 +28,19 @@ struct LightParams {
   double headlight{0.35};       ///< headlight diffuse intensity (0..1)
   // Shadows (the sun's, of the vehicle and the cart on the rings) are render.shadows.
   void validate() const {
+    check_fields(*this);
     require(sun_dir_W.norm() > 1e-6 && sun_dir_W.z() < 0, "sun_dir",
             "must point downwards (z < 0)");
-    require(sun_intensity >= 0 && sun_intensity <= 1, "sun_intensity", "must be in [0, 1]");
-    require(ambient >= 0 && ambient <= 1, "ambient", "must be in [0, 1]");
-    require(headlight >= 0 && headlight <= 1, "headlight", "must be in [0, 1]");
   }
 };
 
 template <class V>
 void visit_fields(V& v, LightParams& p) {
-  v("sun_dir", p.sun_dir_W);
-  v("sun_intensity", p.sun_intensity);
-  v("ambient", p.ambient);
-  v("headlight", p.headlight);
+  v("sun_dir", p.sun_dir_W, range::any, "", "direction the sunlight travels");
+  v("sun_intensity", p.sun_intensity, range::closed(0, 1), "",
+    "diffuse intensity of the sun (0..1 per colour channel)");
+  v("ambient", p.ambient, range::closed(0, 1), "", "headlight ambient intensity");
+  v("headlight", p.headlight, range::closed(0, 1), "", "headlight diffuse intensity");
 }
 
 struct WorldParams {
@@ -52,20 +51,20 @@ struct WorldParams {
   LightParams light;
   RouteParams route;               ///< a painted route on the ground (none by default)
   void validate() const {
+    check_fields(*this);
     validate_nested("light", light);
     validate_nested("route", route);
     require(!model_path.empty(), "model", "must name an MJCF file");
     require(!target_path.empty(), "target", "must name a target YAML");
-    require(physics_dt_s > 0 && physics_dt_s <= 0.005, "dt_ms", "must be in (0, 5] ms");
   }
 };
 
 template <class V>
 void visit_fields(V& v, WorldParams& p) {
-  v("model", p.model_path);
-  v("target", p.target_path);
-  v("dt_ms", p.physics_dt_s, 1e-3);
-  v("ground_seed", p.ground_seed);
+  v("model", p.model_path, range::any, "", "MJCF world");
+  v("target", p.target_path, range::any, "", "target YAML");
+  v("dt_ms", p.physics_dt_s, range::open_closed(0, 5), "ms", "physics step", 1e-3);
+  v("ground_seed", p.ground_seed, range::any, "", "seed of the procedural ground texture");
   v.nested("light", p.light);
   v.nested("route", p.route);
 }

@@ -5,6 +5,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace lander::sim {
 
@@ -32,6 +33,11 @@ class GlContext {
 
   GlBackend backend() const;
   std::string description() const;  // backend plus GL_RENDERER string
+  // EGL: the devices eglQueryDevicesEXT lists ("0: hardware /dev/dri/renderD128", "1:
+  // software (EGL_MESA_device_software)"), empty under OSMesa or without the extension;
+  // the one in use (a hardware device is preferred to Mesa's surfaceless platform).
+  std::vector<std::string> devices() const;
+  std::string device_used() const;
 
  private:
   struct Impl;

@@ -7,7 +7,7 @@
 #include <mujoco/mujoco.h>
 #include <opencv2/core.hpp>
 
-#include "lander/estimator/params_io.h"
+#include "lander/core/params_io.h"
 #include "lander/sim/render/gl_context.h"
 
 namespace lander::sim {
@@ -18,17 +18,19 @@ struct RenderParams {
   bool shadows{false};          ///< the sun casts shadows (the vehicle's and the cart's on the
                                 ///< rings): shadow mapping, costly on llvmpipe (README)
   void validate() const {
+    check_fields(*this);
     require(backend == "auto" || backend == "egl" || backend == "osmesa", "backend",
             "must be auto, egl or osmesa (got '" + backend + "')");
-    require(msaa_samples >= 0 && msaa_samples <= 16, "msaa_samples", "must be in [0, 16]");
   }
 };
 
 template <class V>
 void visit_fields(V& v, RenderParams& p) {
-  v("backend", p.backend);
-  v("msaa_samples", p.msaa_samples);
-  v("shadows", p.shadows);
+  v("backend", p.backend, range::any, "", "GL backend: auto (EGL, then OSMesa)");
+  v("msaa_samples", p.msaa_samples, range::closed(0, 16), "",
+    "multisample anti-aliasing samples (0 = off; see README)");
+  v("shadows", p.shadows, range::any, "",
+    "the sun casts shadows (the vehicle's and the cart's on the rings)");
 }
 
 // Where a render's wall time goes (accumulated over every render of this renderer): MuJoCo's
@@ -61,6 +63,8 @@ class Renderer {
   void upload_texture(const mjModel* m, int tex_id);
 
   std::string backend_description() const { return gl_->description(); }
+  std::vector<std::string> backend_devices() const { return gl_->devices(); }
+  std::string backend_device_used() const { return gl_->device_used(); }
   const RenderTimes& times() const { return times_; }
   // MuJoCo's scene render flags (mjRND_*), for `lander bench render`'s variants.
   mjtByte& scene_flag(int flag) { return scene_.flags[flag]; }

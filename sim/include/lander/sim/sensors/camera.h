@@ -14,8 +14,8 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
-#include "lander/estimator/params_io.h"
-#include "lander/estimator/types.h"
+#include "lander/core/params_io.h"
+#include "lander/core/types.h"
 
 namespace lander::sim {
 
@@ -50,7 +50,7 @@ struct CameraParams {
   // Blur whose render count follows the image motion (blur_renders()).
   bool adaptive_blur() const { return blur_samples > 1 && blur_px_per_render > 0; }
   void validate() const {
-    require(gain > 0 && gain <= 16, "gain", "must be in (0, 16]");
+    check_fields(*this);
     require(mount_error_rad.cwiseAbs().maxCoeff() <= M_PI / 6, "mount_error_deg",
             "each angle must be within +-30 deg");
     require(mount_offset_m.cwiseAbs().maxCoeff() <= 0.2, "mount_offset_m",
@@ -62,27 +62,28 @@ struct CameraParams {
             "intrinsics.width_px", sides);
     require(intrinsics.height_px >= kMinCameraSidePx && intrinsics.height_px <= kMaxRenderSidePx,
             "intrinsics.height_px", sides);
-    require(rate_hz > 0 && rate_hz <= 240, "rate_hz", "must be in (0, 240]");
     require(exposure_s >= 0 && exposure_s < 1.0 / rate_hz, "exposure_ms",
             "must be >= 0 and shorter than the frame period");
-    require(blur_samples >= 1 && blur_samples <= 64, "blur_samples", "must be in [1, 64]");
     require(blur_px_per_render == 0 || (blur_px_per_render >= 0.1 && blur_px_per_render <= 100),
             "blur_px_per_render", "must be 0 (fixed count) or in [0.1, 100] px");
-    require(read_noise_dn >= 0 && read_noise_dn <= 50, "read_noise_dn", "must be in [0, 50]");
   }
 };
 
 template <class V>
 void visit_fields(V& v, CameraParams& p) {
   v.nested("intrinsics", p.intrinsics);
-  v("rate_hz", p.rate_hz);
-  v("exposure_ms", p.exposure_s, 1e-3);
-  v("blur_samples", p.blur_samples);
-  v("blur_px_per_render", p.blur_px_per_render);
-  v("read_noise_dn", p.read_noise_dn);
-  v("gain", p.gain);
-  v("mount_error_deg", p.mount_error_rad, M_PI / 180.0);
-  v("mount_offset_m", p.mount_offset_m);
+  v("rate_hz", p.rate_hz, range::open_closed(0, 240), "Hz", "frame rate");
+  v("exposure_ms", p.exposure_s, range::any, "ms", "exposure time", 1e-3);
+  v("blur_samples", p.blur_samples, range::closed(1, 64), "",
+    "renders averaged over the exposure (1 = no blur)");
+  v("blur_px_per_render", p.blur_px_per_render, range::any, "",
+    "adaptive blur: one render per this many pixels of the largest image");
+  v("read_noise_dn", p.read_noise_dn, range::closed(0, 50), "grey levels (8 bit)",
+    "Gaussian read noise std (8-bit grey levels)");
+  v("gain", p.gain, range::open_closed(0, 16), "", "exposure x gain relative to nominal");
+  v("mount_error_deg", p.mount_error_rad, range::any, "deg",
+    "true mount rotation off the nominal one", M_PI / 180.0);
+  v("mount_offset_m", p.mount_offset_m, range::any, "m", "true mount position off the nominal one");
 }
 
 // One frame as the vehicle delivers it, plus the truth the simulator keeps beside it.

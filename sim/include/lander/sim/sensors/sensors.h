@@ -36,8 +36,8 @@
 
 #include <Eigen/Core>
 
-#include "lander/estimator/params_io.h"
-#include "lander/estimator/types.h"
+#include "lander/core/params_io.h"
+#include "lander/core/types.h"
 #include "lander/sim/plant/truth.h"
 
 namespace lander::sim {
@@ -94,32 +94,31 @@ struct ImuParams {
                                           ///< misalignment_deg
 
   void validate() const {
-    require(rate_hz > 0, "rate_hz", "must be > 0");
+    check_fields(*this);
     require(misalignment_rad.cwiseAbs().maxCoeff() <= M_PI / 18, "misalignment_deg",
             "each angle must be within +-10 deg");
-    require(latency_s >= 0, "latency_ms", "must be >= 0");
-    require(gravity_mps2 > 0, "gravity_mps2", "must be > 0");
-    require(gyro_noise_std_radps >= 0, "gyro_noise_std_radps", "must be >= 0");
-    require(accel_noise_std_mps2 >= 0, "accel_noise_std_mps2", "must be >= 0");
-    require(gyro_bias_init_std_radps >= 0, "gyro_bias_init_std_radps", "must be >= 0");
-    require(accel_bias_init_std_mps2 >= 0, "accel_bias_init_std_mps2", "must be >= 0");
-    require(gyro_bias_rw_radps_per_sqrts >= 0, "gyro_bias_rw_radps_per_sqrts", "must be >= 0");
-    require(accel_bias_rw_mps2_per_sqrts >= 0, "accel_bias_rw_mps2_per_sqrts", "must be >= 0");
   }
 };
 
 template <class V>
 void visit_fields(V& v, ImuParams& p) {
-  v("rate_hz", p.rate_hz);
-  v("latency_ms", p.latency_s, 1e-3);
-  v("gravity_mps2", p.gravity_mps2);
-  v("gyro_noise_std_radps", p.gyro_noise_std_radps);
-  v("accel_noise_std_mps2", p.accel_noise_std_mps2);
-  v("gyro_bias_init_std_radps", p.gyro_bias_init_std_radps);
-  v("accel_bias_init_std_mps2", p.accel_bias_init_std_mps2);
-  v("gyro_bias_rw_radps_per_sqrts", p.gyro_bias_rw_radps_per_sqrts);
-  v("accel_bias_rw_mps2_per_sqrts", p.accel_bias_rw_mps2_per_sqrts);
-  v("misalignment_deg", p.misalignment_rad, M_PI / 180.0);
+  v("rate_hz", p.rate_hz, range::positive, "Hz", "sample rate");
+  v("latency_ms", p.latency_s, range::non_negative, "ms", "delivery latency", 1e-3);
+  v("gravity_mps2", p.gravity_mps2, range::positive, "m/s^2", "|g| used for the specific force");
+  v("gyro_noise_std_radps", p.gyro_noise_std_radps, range::non_negative, "rad/s",
+    "white noise per sample");
+  v("accel_noise_std_mps2", p.accel_noise_std_mps2, range::non_negative, "m/s^2",
+    "white noise per sample");
+  v("gyro_bias_init_std_radps", p.gyro_bias_init_std_radps, range::non_negative, "rad/s",
+    "std of the turn-on bias");
+  v("accel_bias_init_std_mps2", p.accel_bias_init_std_mps2, range::non_negative, "m/s^2",
+    "std of the turn-on bias");
+  v("gyro_bias_rw_radps_per_sqrts", p.gyro_bias_rw_radps_per_sqrts, range::non_negative, "rad/s/sqrt(s)",
+    "bias random walk");
+  v("accel_bias_rw_mps2_per_sqrts", p.accel_bias_rw_mps2_per_sqrts, range::non_negative, "m/s^2/sqrt(s)",
+    "bias random walk");
+  v("misalignment_deg", p.misalignment_rad, range::any, "deg",
+    "the IMU's axes rotated off B by roll", M_PI / 180.0);
 }
 
 class ImuModel {
@@ -154,31 +153,26 @@ struct BaroParams {
   double hover_thrust_fraction{0.5}; ///< thrust fraction at which downwash_error_m applies
 
   void validate() const {
-    require(rate_hz > 0, "rate_hz", "must be > 0");
-    require(latency_s >= 0, "latency_ms", "must be >= 0");
-    require(origin_msl_m > -400 && origin_msl_m < 10000, "origin_msl_m",
-            "must be within the ISA troposphere (-400 .. 10000 m)");
-    require(bias_std_m >= 0, "bias_std_m", "must be >= 0");
-    require(noise_std_m >= 0, "noise_std_m", "must be >= 0");
-    require(drift_rw_m_per_sqrts >= 0, "drift_rw_m_per_sqrts", "must be >= 0");
-    require(downwash_decay_m > 0, "downwash_decay_m", "must be > 0");
-    require(hover_thrust_fraction > 0 && hover_thrust_fraction <= 1, "hover_thrust_fraction",
-            "must be in (0, 1]");
+    check_fields(*this);
   }
 };
 
 template <class V>
 void visit_fields(V& v, BaroParams& p) {
-  v("rate_hz", p.rate_hz);
-  v("latency_ms", p.latency_s, 1e-3);
-  v("origin_msl_m", p.origin_msl_m);
-  v("bias_mean_m", p.bias_mean_m);
-  v("bias_std_m", p.bias_std_m);
-  v("noise_std_m", p.noise_std_m);
-  v("drift_rw_m_per_sqrts", p.drift_rw_m_per_sqrts);
-  v("downwash_error_m", p.downwash_error_m);
-  v("downwash_decay_m", p.downwash_decay_m);
-  v("hover_thrust_fraction", p.hover_thrust_fraction);
+  v("rate_hz", p.rate_hz, range::positive, "Hz", "sample rate");
+  v("latency_ms", p.latency_s, range::non_negative, "ms", "delivery latency", 1e-3);
+  v("origin_msl_m", p.origin_msl_m,
+    range::open(-400, 10000).because("within the ISA troposphere"), "m", "altitude of the W origin above sea level");
+  v("bias_mean_m", p.bias_mean_m, range::any, "m", "mean of the constant bias eps_b (eq. 9)");
+  v("bias_std_m", p.bias_std_m, range::non_negative, "m", "std of eps_b, drawn once per run");
+  v("noise_std_m", p.noise_std_m, range::non_negative, "m", "white noise w_q (eq. 9)");
+  v("drift_rw_m_per_sqrts", p.drift_rw_m_per_sqrts, range::non_negative, "m/sqrt(s)",
+    "slow drift, random walk");
+  v("downwash_error_m", p.downwash_error_m, range::any, "m", "downwash error at the surface");
+  v("downwash_decay_m", p.downwash_decay_m, range::positive, "m",
+    "e-folding height of the downwash error");
+  v("hover_thrust_fraction", p.hover_thrust_fraction, range::open_closed(0, 1), "",
+    "thrust fraction at which downwash_error_m applies");
 }
 
 class BaroModel {
@@ -218,33 +212,26 @@ struct GpsParams {
   double dropout_duration_s{3.0};      ///< drop-out length (s)
 
   void validate() const {
-    require(rate_hz > 0 && rate_hz <= 50, "rate_hz", "must be in (0, 50]");
-    require(latency_s >= 0, "latency_ms", "must be >= 0");
-    require(horizontal_std_m >= 0, "horizontal_std_m", "must be >= 0");
-    require(vertical_std_m >= 0, "vertical_std_m", "must be >= 0");
-    require(correlation_time_s > 0, "correlation_time_s", "must be > 0");
-    require(velocity_std_mps >= 0, "velocity_std_mps", "must be >= 0");
-    require(glitch_rate_per_s >= 0, "glitch_rate_per_s", "must be >= 0");
-    require(glitch_std_m >= 0, "glitch_std_m", "must be >= 0");
-    require(glitch_duration_s >= 0, "glitch_duration_s", "must be >= 0");
-    require(dropout_rate_per_s >= 0, "dropout_rate_per_s", "must be >= 0");
-    require(dropout_duration_s >= 0, "dropout_duration_s", "must be >= 0");
+    check_fields(*this);
   }
 };
 
 template <class V>
 void visit_fields(V& v, GpsParams& p) {
-  v("rate_hz", p.rate_hz);
-  v("latency_ms", p.latency_s, 1e-3);
-  v("horizontal_std_m", p.horizontal_std_m);
-  v("vertical_std_m", p.vertical_std_m);
-  v("correlation_time_s", p.correlation_time_s);
-  v("velocity_std_mps", p.velocity_std_mps);
-  v("glitch_rate_per_s", p.glitch_rate_per_s);
-  v("glitch_std_m", p.glitch_std_m);
-  v("glitch_duration_s", p.glitch_duration_s);
-  v("dropout_rate_per_s", p.dropout_rate_per_s);
-  v("dropout_duration_s", p.dropout_duration_s);
+  v("rate_hz", p.rate_hz, range::open_closed(0, 50), "Hz", "fix rate, 5-10 for small receivers");
+  v("latency_ms", p.latency_s, range::non_negative, "ms", "delivery latency", 1e-3);
+  v("horizontal_std_m", p.horizontal_std_m, range::non_negative, "m", "stationary std of the x");
+  v("vertical_std_m", p.vertical_std_m, range::non_negative, "m", "stationary std of the z error");
+  v("correlation_time_s", p.correlation_time_s, range::positive, "s",
+    "Gauss-Markov correlation time of the error");
+  v("velocity_std_mps", p.velocity_std_mps, range::non_negative, "m/s",
+    "white velocity noise per axis");
+  v("glitch_rate_per_s", p.glitch_rate_per_s, range::non_negative, "s",
+    "mean rate of random glitches");
+  v("glitch_std_m", p.glitch_std_m, range::non_negative, "m", "per-axis std of a glitch offset");
+  v("glitch_duration_s", p.glitch_duration_s, range::non_negative, "s", "glitch length");
+  v("dropout_rate_per_s", p.dropout_rate_per_s, range::non_negative, "s", "mean rate of drop-outs");
+  v("dropout_duration_s", p.dropout_duration_s, range::non_negative, "s", "drop-out length");
 }
 
 class GpsModel {
@@ -288,25 +275,22 @@ struct UltrasonicParams {
   double glitch_prob{0.0};         ///< probability of a garbage value inside the range (-)
 
   void validate() const {
-    require(rate_hz > 0, "rate_hz", "must be > 0");
-    require(latency_s >= 0, "latency_ms", "must be >= 0");
-    require(min_range_m >= 0, "min_range_m", "must be >= 0");
+    check_fields(*this);
     require(max_range_m > min_range_m, "max_range_m", "must be > min_range_m");
-    require(noise_std_m >= 0, "noise_std_m", "must be >= 0");
-    require(garbage_scale_m > 0, "garbage_scale_m", "must be > 0");
-    require(glitch_prob >= 0 && glitch_prob <= 1, "glitch_prob", "must be in [0, 1]");
   }
 };
 
 template <class V>
 void visit_fields(V& v, UltrasonicParams& p) {
-  v("rate_hz", p.rate_hz);
-  v("latency_ms", p.latency_s, 1e-3);
-  v("min_range_m", p.min_range_m);
-  v("max_range_m", p.max_range_m);
-  v("noise_std_m", p.noise_std_m);
-  v("garbage_scale_m", p.garbage_scale_m);
-  v("glitch_prob", p.glitch_prob);
+  v("rate_hz", p.rate_hz, range::positive, "Hz", "ping rate");
+  v("latency_ms", p.latency_s, range::non_negative, "ms", "delivery latency", 1e-3);
+  v("min_range_m", p.min_range_m, range::non_negative, "m", "lower end of the valid range");
+  v("max_range_m", p.max_range_m, range::any, "m", "upper end of the valid range");
+  v("noise_std_m", p.noise_std_m, range::non_negative, "m", "white noise inside the range");
+  v("garbage_scale_m", p.garbage_scale_m, range::positive, "m",
+    "scale of |Cauchy| garbage outside the range");
+  v("glitch_prob", p.glitch_prob, range::closed(0, 1), "probability",
+    "probability of a garbage value inside the range");
 }
 
 class UltrasonicModel {
@@ -348,23 +332,22 @@ struct MagnetometerParams {
   // The field the vehicle is in: field_W_uT with the declination applied.
   Eigen::Vector3d true_field_W_uT() const;
   void validate() const {
+    check_fields(*this);
     require(std::abs(declination_rad) <= M_PI, "declination_deg", "must be within +-180 deg");
-    require(rate_hz > 0, "rate_hz", "must be > 0");
-    require(latency_s >= 0, "latency_ms", "must be >= 0");
     require(field_W_uT.head<2>().norm() > 1.0, "field_W_uT", "needs a horizontal component (uT)");
-    require(noise_std_uT >= 0, "noise_std_uT", "must be >= 0");
-    require(bias_std_uT >= 0, "bias_std_uT", "must be >= 0");
   }
 };
 
 template <class V>
 void visit_fields(V& v, MagnetometerParams& p) {
-  v("rate_hz", p.rate_hz);
-  v("latency_ms", p.latency_s, 1e-3);
-  v("field_W_uT", p.field_W_uT);
-  v("noise_std_uT", p.noise_std_uT);
-  v("bias_std_uT", p.bias_std_uT);
-  v("declination_deg", p.declination_rad, M_PI / 180.0);
+  v("rate_hz", p.rate_hz, range::positive, "Hz", "sample rate");
+  v("latency_ms", p.latency_s, range::non_negative, "ms", "delivery latency", 1e-3);
+  v("field_W_uT", p.field_W_uT, range::any, "uT", "local field in W");
+  v("noise_std_uT", p.noise_std_uT, range::non_negative, "uT", "white noise per axis");
+  v("bias_std_uT", p.bias_std_uT, range::non_negative, "uT",
+    "residual hard-iron bias after calibration");
+  v("declination_deg", p.declination_rad, range::any, "deg",
+    "the true field's horizontal part rotated about W z", M_PI / 180.0);
 }
 
 class MagnetometerModel {
@@ -405,8 +388,9 @@ struct PlatformTelemetryParams {
 
 template <class V>
 void visit_fields(V& v, PlatformTelemetryParams& p) {
-  v("enabled", p.enabled);
-  v("message_loss_prob", p.message_loss_prob);
+  v("enabled", p.enabled, range::any, "", "the platform broadcasts (and the vehicle receives)");
+  v("message_loss_prob", p.message_loss_prob, range::closed(0, 1), "probability",
+    "probability that one message is lost on the link");
   v.nested("gnss", p.gnss);
 }
 
