@@ -184,43 +184,36 @@ TEST(ScenarioConfigErrors, DefaultKeyIsLocatedAtItsNearestParent) {
       << v;
 }
 
-// Collects the dotted path of every key of a params struct (numeric ones apart).
-struct Collector {
-  std::string prefix;
-  std::vector<std::string>* numeric;
-  std::set<std::string>* all;
-  void add(const char* k, bool is_numeric) {
-    all->insert(prefix + k);
-    if (is_numeric) numeric->push_back(prefix + k);
+// "a.b.c" set to `value` as a scenario file's text.
+std::string yaml_setting(const std::string& path, const std::string& value) {
+  std::string yaml, indent;
+  std::size_t start = 0, dot;
+  while ((dot = path.find('.', start)) != std::string::npos) {
+    yaml += indent + path.substr(start, dot - start) + ":\n";
+    indent += "  ";
+    start = dot + 1;
   }
-  void operator()(const char* k, double&, double = 1.0) { add(k, true); }
-  void operator()(const char* k, int&) { add(k, true); }
-  void operator()(const char* k, std::uint64_t&) { add(k, true); }
-  void operator()(const char* k, bool&) { add(k, false); }
-  void operator()(const char* k, std::string&) { add(k, false); }
-  void operator()(const char* k, std::vector<double>&, double = 1.0) { add(k, false); }
-  void operator()(const char* k, Eigen::Vector2d&, double = 1.0) { add(k, false); }
-  void operator()(const char* k, Eigen::Vector3d&, double = 1.0) { add(k, false); }
-  void operator()(const char* k, YAML::Node&) { add(k, false); }
-  template <class T>
-  void operator()(const char* k, T& field, const Range&, const char*, const char*) {
-    (*this)(k, field);
+  return yaml + indent + path.substr(start) + ": " + value + "\n";
+}
+
+// The dotted path of every key of the scenario (nested structs and lists by their own key,
+// not their items'), and the numeric ones, from the visitors (FieldLister).
+void scenario_keys(Scenario& s, std::vector<std::string>* numeric, std::set<std::string>* all) {
+  std::vector<FieldInfo> fields;
+  FieldLister lister(&fields);
+  visit_fields(lister, s);
+  for (const FieldInfo& f : fields) {
+    const std::size_t item = f.key.find("[]");
+    const std::string key = item == std::string::npos ? f.key : f.key.substr(0, item);
+    for (std::size_t dot = key.find('.'); dot != std::string::npos; dot = key.find('.', dot + 1)) {
+      all->insert(key.substr(0, dot));
+    }
+    all->insert(key);
+    if (item == std::string::npos && (f.type == "number" || f.type == "integer")) {
+      numeric->push_back(f.key);
+    }
   }
-  template <class T>
-  void operator()(const char* k, T& field, const Range&, const char*, const char*, double s) {
-    (*this)(k, field, s);
-  }
-  template <class P>
-  void nested(const char* k, P& sub) {
-    all->insert(prefix + k);
-    Collector c{prefix + k + ".", numeric, all};
-    visit_fields(c, sub);
-  }
-  template <class P>
-  void list(const char* k, std::vector<P>&) {
-    all->insert(prefix + k);
-  }
-};
+}
 
 // Every error validate() raises names a key that exists, by its full dotted path: each
 // numeric key of the scenario is set in turn to extreme values, and any keyed ConfigError
@@ -229,24 +222,14 @@ TEST(ScenarioConfigErrors, EveryValidationErrorNamesARealKey) {
   std::vector<std::string> numeric;
   std::set<std::string> all;
   Scenario defaults = Scenario::defaults();
-  Collector c{"", &numeric, &all};
-  visit_fields(c, defaults);
+  scenario_keys(defaults, &numeric, &all);
   ASSERT_GT(numeric.size(), 200u);
   int errors = 0;
   for (const std::string& path : numeric) {
     for (const char* value : {"-1000000000", "-1", "0", "1000000000"}) {
-      // path a.b.c -> "a:\n  b:\n    c: value\n"
-      std::string yaml, indent;
-      std::size_t start = 0, dot;
-      while ((dot = path.find('.', start)) != std::string::npos) {
-        yaml += indent + path.substr(start, dot - start) + ":\n";
-        indent += "  ";
-        start = dot + 1;
-      }
-      yaml += indent + path.substr(start) + ": " + value + "\n";
       Scenario s = defaults;  // a copy: Scenario::defaults() reads two files (~800 sweeps)
       try {
-        read_params(YAML::Load(yaml), "x.yaml", s);
+        read_params(YAML::Load(yaml_setting(path, value)), "x.yaml", s);
       } catch (const ConfigError& e) {
         ++errors;
         const std::string m = e.what();
@@ -258,18 +241,6 @@ TEST(ScenarioConfigErrors, EveryValidationErrorNamesARealKey) {
     }
   }
   EXPECT_GT(errors, 200);  // the sweep did reach the checks
-}
-
-// "a.b.c" set to `value` as a scenario file's text.
-std::string yaml_setting(const std::string& path, const std::string& value) {
-  std::string yaml, indent;
-  std::size_t start = 0, dot;
-  while ((dot = path.find('.', start)) != std::string::npos) {
-    yaml += indent + path.substr(start, dot - start) + ":\n";
-    indent += "  ";
-    start = dot + 1;
-  }
-  return yaml + indent + path.substr(start) + ": " + value + "\n";
 }
 
 // A value just outside a bounded range: the open end itself, else one past the closed end.

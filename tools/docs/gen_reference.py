@@ -329,7 +329,8 @@ test fails when this page differs from what the code gives):
   gives);
 - **meaning**: the description the `visit_fields` call gives; where the field's `///<`
   comment in the header (else the comment block above it) says more, that comment instead
-  when it begins with the description, else both; cut to {limit} characters; each section names the struct and the header that declares it.
+  when it begins with the description, else both; cut to {limit} characters; each section
+  names the struct and the header that declares it.
 """
 
 
@@ -355,20 +356,33 @@ def meaning_of(spec, comment):
     return desc + " &mdash; " + one_line(comment)
 
 
-def unit_from(key, spec, comment):
-    """The visitor's unit; for a key no visitor describes, the suffix or comment heuristic."""
-    if spec is not None:
-        return spec["unit"]
-    unit, how = unit_of(key, comment)
-    return unit + " *(comment)*" if how == "comment" else unit
+def unit_from(key, spec):
+    """The unit the key's visitor gives (`lander docs keys` lists every key of the tree)."""
+    if spec is None:
+        raise GenError("key %s is not in `lander docs keys` (rebuild the lander binary?)" % key)
+    return spec["unit"]
+
+
+def list_row(key, value, docs, specs):
+    """The row of a list key (its items' keys are rows of their own), or None."""
+    if not isinstance(value, list) or not any(k.startswith(key + "[].") for k in specs):
+        return None
+    doc, where = doc_of(docs.get(key))
+    meaning = "list; each item's keys are the `%s[].` rows" % key
+    return {"key": key, "unit": "", "default": fmt_value(value), "allowed": "a list",
+            "meaning": meaning + (" &mdash; " + one_line(doc) if doc else ""), "where": where}
 
 
 def section_rows(leaves, docs, probes, specs, defaults_note=None):
     rows = []
     for key, value in leaves:
+        as_list = list_row(key, value, docs, specs)
+        if as_list is not None:
+            rows.append(as_list)
+            continue
         kd = docs.get(key)
         doc, where = doc_of(kd)
-        unit = unit_from(key, specs.get(key), doc)
+        unit = unit_from(key, specs.get(key))
         default = fmt_value(value)
         if defaults_note and key in defaults_note:
             default += " " + defaults_note[key]
@@ -387,7 +401,7 @@ def list_item_rows(docs, list_prefix, specs, probes_note="not probed (list item)
             continue
         doc, where = doc_of(kd)
         spec = specs.get(path)
-        unit = unit_from(path, spec, doc)
+        unit = unit_from(path, spec)
         init = kd.field.init if kd.field is not None else ""
         init = re.sub(r"^[{=]\s*|\s*}$", "", init or "")
         allowed = (spec or {}).get("allowed") or probes_note
