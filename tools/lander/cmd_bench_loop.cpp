@@ -5,7 +5,8 @@
 // frame, milliseconds per camera frame spent in rendering, the estimator, control (sensors,
 // filters, controller), physics and waiting for the vision worker. --frames-csv F: the vision
 // stage's cost and result per camera frame (with the predicted blur and the detection's height,
-// next to the true height).
+// next to the true height). --save-frames DIR: every camera frame as PNG, for `lander bench
+// frames` (the detector alone on the same frames with the same predicted blur).
 #include <fstream>
 #include <iostream>
 
@@ -17,7 +18,7 @@ namespace lander::cli {
 namespace {
 
 int bench_loop(const Args& args) {
-  ArgParser a(args, {"json", "scenario", "duration", "out", "vision-schedule", "frames-csv"}, {});
+  ArgParser a(args, {"json", "scenario", "duration", "out", "vision-schedule", "frames-csv", "save-frames"}, {});
   if (!a.has("json")) throw UsageError("usage: lander bench loop --json FILE [--scenario FILE]");
   sim::Scenario s = sim::Scenario::load(a.value("scenario", std::string(LANDER_SCENARIOS_DIR) + "/default.yaml"));
   s.duration_s = a.number("duration", s.duration_s, 0.1);
@@ -26,6 +27,7 @@ int bench_loop(const Args& args) {
   o.out_dir = a.value("out", "/tmp/lander_bench_loop");
   o.vision_schedule = a.choice("vision-schedule", "auto", sim::kVisionSchedules);
   o.vision_profile_csv = a.value("frames-csv");
+  o.save_frames_dir = a.value("save-frames");
   const nlohmann::ordered_json summary = sim::run_scenario(s, o);
   std::ifstream perf_file(o.out_dir + "/performance.json");
   const nlohmann::ordered_json perf = nlohmann::ordered_json::parse(perf_file);
@@ -35,7 +37,7 @@ int bench_loop(const Args& args) {
   return kExitOk;
 }
 
-const LanderCommand reg("loop", "loop --json FILE [--scenario FILE] [--duration S] [--vision-schedule auto|serial|overlap] [--frames-csv F]", Kind::Bench,
+const LanderCommand reg("loop", "loop --json FILE [--scenario FILE] [--duration S] [--vision-schedule auto|serial|overlap] [--frames-csv F] [--save-frames DIR]", Kind::Bench,
                         bench_loop);
 
 }  // namespace

@@ -246,7 +246,8 @@ std::unique_ptr<CsvWriter> open_vision_profile(const RunOptions& o) {
   if (o.vision_profile_csv.empty()) return nullptr;
   return std::make_unique<CsvWriter>(
       o.vision_profile_csv, std::vector<std::string>{"frame", "t_s", "height_m", "detected", "status", "tracking_roi",
-                                                     "code_searched", "rings", "predicted_blur_px", "deblurred", "vision_height_m",
+                                                     "code_searched", "rings", "predicted_blur_px", "predicted_blur_x_px", "predicted_blur_y_px",
+                                                     "deblurred", "vision_height_m",
                                                      "detector_ms", "detector_cpu_ms", "path_ms", "zoomed", "by_layout"});
 }
 
@@ -441,11 +442,13 @@ struct ClosedLoop::Impl {
 
   void write_profile_row(const VisionJob& j, const flight::FrameReport& r) {
     const auto* ring = dynamic_cast<const flight::RingFrameJob*>(j.work.get());
-    const double blur = ring ? ring->predicted_blur_px().norm() : std::numeric_limits<double>::quiet_NaN();
+    constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+    const Eigen::Vector2d blur = ring ? ring->predicted_blur_px() : Eigen::Vector2d(kNaN, kNaN);
     profile->integer(j.frame.index).num(j.frame.exposure.mid(), 4).num(j.capture.z_mid_m - j.capture.platform_z_m, 3);
     profile->integer(r.detected ? 1 : 0).text(r.reason).integer(r.used_roi ? 1 : 0);
     profile->integer(r.code_searched ? 1 : 0).integer(r.rings);
-    profile->num(blur, 2).integer(r.deblurred ? 1 : 0);
+    // The blur's components with 17 decimals: `lander bench frames` gives the detector the same.
+    profile->num(blur.norm(), 2).num(blur.x(), 17).num(blur.y(), 17).integer(r.deblurred ? 1 : 0);
     // The detection's camera height above the target (compare with height_m, the truth).
     profile->num(r.vision_height_m, 4);
     profile->num(r.detector_ms, 3).num(r.detector_cpu_ms, 3).num(r.path_ms, 3);
