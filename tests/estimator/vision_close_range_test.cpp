@@ -191,6 +191,42 @@ TEST(VisionCloseRange, DescentKeepsAFreshPoseEveryFrame) {
   EXPECT_TRUE(saw_rings);
 }
 
+// Given the same descent with two stateful detectors, one searching the code map first at close
+// range (code_first_close_range, the default) and one running the rings' passes first, then
+// every frame gives a pose with both, the poses agree to kSameOrderTolM (the passes skipped
+// identified no set, so the code's pose is the frame's either way), and the first detector
+// skips the rings' passes in the frames below ~0.5 m, where no set is wholly in view.
+TEST(VisionCloseRange, CodeFirstAtCloseRangeGivesThePassesFirstPose) {
+  // Both orders compute the same code pose from the same pixels: only rounding may differ.
+  constexpr double kSameOrderTolM = 1e-9;
+  // The frames of this descent where no ring set is wholly in view: 0.5, 0.4, 0.3 and 0.2 m,
+  // 4 of its 15 (at 0.6 m the central set still is); pinned to what the geometry gives.
+  constexpr int kSkippedFrames = 4;
+  const TargetGeometry& g = test::default_target();
+  VisionParams passes_first;
+  passes_first.code_first_close_range = false;
+  RingTargetDetector first(kCam, g, VisionParams{});
+  RingTargetDetector later(kCam, g, passes_first);
+  int skipped = 0;
+  for (double h = 1.6; h >= 0.15; h -= 0.1) {
+    const auto X = test::look_at_pose(h, 5.0, 30.0 + 20 * h, 0.0, Eigen::Vector2d(0.05, -0.03));
+    const cv::Mat img = test::render_view(g, kCam, X);
+    const RingDetection a = first.detect(img);
+    const RingDetection b = later.detect(img);
+    SCOPED_TRACE("height " + std::to_string(h));
+    ASSERT_TRUE(a.detected) << a.reason;
+    ASSERT_TRUE(b.detected) << b.reason;
+    EXPECT_LT((a.X_CP.translation() - b.X_CP.translation()).norm(), kSameOrderTolM);
+    EXPECT_FALSE(b.rings_skipped);
+    if (a.rings_skipped) {
+      ++skipped;
+      EXPECT_EQ(a.source, PoseSource::Code);
+      EXPECT_TRUE(b.centres.empty()) << "the passes identified a set where they were skipped";
+    }
+  }
+  EXPECT_EQ(skipped, kSkippedFrames);
+}
+
 // Given views from 0.8 to 2.0 m (tilts 0 and 20 deg, random yaw and aim, noise; a plain and a
 // distorted camera) where the rings give this frame's pose, when the code is searched only
 // around its projection (code_search_region, the default), then the region is a part of the

@@ -148,18 +148,43 @@ PixelBounds projected_bounds(const std::vector<cv::Point3d>& pts_C, const Camera
   return b;
 }
 
+}  // namespace
+
+std::vector<cv::Point3d> outer_circle_C(const RingSet& ring, const Eigen::Isometry3d& X) {
+  std::vector<cv::Point3d> pts;
+  for (int k = 0; k < 12; ++k) {
+    const double a = 2 * M_PI * k / 12;
+    const Eigen::Vector3d q =
+        X * Eigen::Vector3d(ring.centre_P_m.x() + ring.outer_radius_m * std::cos(a),
+                            ring.centre_P_m.y() + ring.outer_radius_m * std::sin(a), 0);
+    if (q.z() > 0.05) pts.emplace_back(q.x(), q.y(), q.z());
+  }
+  return pts;
+}
+
+bool wholly_in_view(const FrameContext& f, const RingSet& ring, const Eigen::Isometry3d& X) {
+  const std::vector<cv::Point3d> pts = outer_circle_C(ring, X);
+  if (pts.size() < 12) return false;
+  const auto [x0, y0, x1, y1] = projected_bounds(pts, f.cam);
+  const bool inside = x0 >= 0 && y0 >= 0 && x1 <= f.full.width - 1 && y1 <= f.full.height - 1;
+  return inside && 0.5 * std::max(x1 - x0, y1 - y0) >= f.p.min_axis_px;
+}
+
+int ring_sets_in_view(const FrameContext& f, const Eigen::Isometry3d& X) {
+  int n = 0;
+  for (const auto& ring : f.target.rings) n += wholly_in_view(f, ring, X);
+  return n;
+}
+
+namespace {
+
 // Predicted region: the outer circles projected with the last pose, plus a margin; nullopt
 // when none is in front or the region is too small or most of the frame.
 std::optional<cv::Rect> predicted_region(const FrameContext& f, const Eigen::Isometry3d& X_pred) {
   std::vector<cv::Point3d> pts;
   for (const auto& ring : f.target.rings) {
-    for (int k = 0; k < 12; ++k) {
-      const double a = 2 * M_PI * k / 12;
-      const Eigen::Vector3d q =
-          X_pred * Eigen::Vector3d(ring.centre_P_m.x() + ring.outer_radius_m * std::cos(a),
-                                   ring.centre_P_m.y() + ring.outer_radius_m * std::sin(a), 0);
-      if (q.z() > 0.05) pts.emplace_back(q.x(), q.y(), q.z());
-    }
+    const std::vector<cv::Point3d> circle = outer_circle_C(ring, X_pred);
+    pts.insert(pts.end(), circle.begin(), circle.end());
   }
   if (pts.empty()) return std::nullopt;
   const auto [x0, y0, x1, y1] = projected_bounds(pts, f.cam);
@@ -550,6 +575,48 @@ void search_code_map(FrameContext& f, const Eigen::Isometry3d* track, RingDetect
       d.code = detect_code_pattern(f.grey, f.cam, f.target, f.p);
     }
   }
+}
+
+// ---- the order of the passes and the code map ----
+
+namespace {
+
+// What search_code_map() wrote into a detection, kept across passes that replace it.
+struct CodeSearch {
+  bool searched{false};
+  CodeDetection code;
+  cv::Rect region;
+  explicit CodeSearch(const RingDetection& d)
+      : searched(d.code_searched), code(d.code), region(d.code_region) {}
+  void restore(RingDetection& d) const {
+    d.code_searched = searched;
+    d.code = code;
+    d.code_region = region;
+  }
+};
+
+bool code_first(const FrameContext& f, const Eigen::Isometry3d* track, const Found& found) {
+  return f.p.code_first_close_range && track != nullptr && !found.d.detected &&
+         ring_sets_in_view(f, *track) == 0;
+}
+
+}  // namespace
+
+void search_rings_and_code(FrameContext& f, const Eigen::Isometry3d* track, Found& found) {
+  if (!code_first(f, track, found)) {
+    try_fallback_passes(f, found);
+    search_code_map(f, track, found.d);
+    return;
+  }
+  search_code_map(f, track, found.d);
+  if (found.d.code.detected) {
+    found.d.rings_skipped = true;
+    return;
+  }
+  // The code map gave no pose: the rings' passes as without it (they replace the detection).
+  const CodeSearch code(found.d);
+  try_fallback_passes(f, found);
+  code.restore(found.d);
 }
 
 }  // namespace lander::vision_internal

@@ -204,13 +204,12 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vect
   // frame stands alone (single images, the estimator benchmark's independent views).
   const Eigen::Isometry3d* track = params_.tracking && have_prediction_ ? &X_CP_pred_ : nullptr;
   FrameContext f{image, camera_, target_, params_, blur_px, cv::Rect(0, 0, image.cols, image.rows)};
-  // The rings: the predicted region, then the passes while no pose.
+  // The rings: the predicted region, then the passes while no pose, and the code map (first
+  // at close range); then the poses combined, then the checks every pose must pass.
   vision_internal::Found found;
   if (track != nullptr) vision_internal::try_predicted_region(f, *track, found);
-  vision_internal::try_fallback_passes(f, found);
+  vision_internal::search_rings_and_code(f, track, found);
   RingDetection& d = found.d;
-  // The code map, then the poses combined, then the checks every pose must pass.
-  vision_internal::search_code_map(f, track, d);
   vision_internal::combine_sources(d, found.cands, camera_.K(), target_, params_, track);
   check_faces_camera(d);
   check_ring_identities(f, track, d);
@@ -280,6 +279,7 @@ std::string to_json(const RingDetection& d) {
   j["keyframe_status"] = to_string(d.keyframe_status);
   j["rho"] = d.rho;
   j["used_roi"] = d.used_roi;
+  j["rings_skipped"] = d.rings_skipped;
   j["deblurred"] = d.deblurred;
   j["unfiltered"] = d.unfiltered;
   j["zoomed"] = d.zoomed;

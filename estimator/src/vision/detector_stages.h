@@ -177,6 +177,18 @@ void try_fallback_passes(FrameContext& f, Found& so_far);
 // The code map (seed 001) searched unless the pose (this frame's, else the track) shows its
 // cells too small; fills d.code, d.code_searched and d.code_region.
 void search_code_map(FrameContext& f, const Eigen::Isometry3d* track, RingDetection& d);
+// The outer circle of `ring` under the pose `X`: 12 points in the camera frame, fewer where
+// they are behind it.
+std::vector<cv::Point3d> outer_circle_C(const RingSet& ring, const Eigen::Isometry3d& X);
+// `ring` wholly in the frame under `X` (every point of the outer circle in front and inside,
+// the outer radius at least min_axis_px); ring_sets_in_view counts the target's.
+bool wholly_in_view(const FrameContext& f, const RingSet& ring, const Eigen::Isometry3d& X);
+int ring_sets_in_view(const FrameContext& f, const Eigen::Isometry3d& X);
+// After the predicted region: the rings' fallback passes and the code map, the code map first
+// at close range (code_first_close_range: no pose yet and the track shows no ring set wholly
+// in the frame), the passes then only when it gives no pose (d.rings_skipped when they did
+// not run); else the passes, then the code map with their pose.
+void search_rings_and_code(FrameContext& f, const Eigen::Isometry3d* track, Found& found);
 
 // Fewer-ring / combined pose on top of the ring pass (pose_sources.cpp). `d` is the ring
 // result (detected or not), `cands` its ellipse candidates, d.code the code result (may be

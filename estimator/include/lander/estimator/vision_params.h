@@ -196,6 +196,12 @@ struct VisionParams {
   bool code_search_region{true};     ///< with a pose (this frame's rings or the track), search
                                      ///< the code only around its projection (else, or when a
                                      ///< tracked region misses it, the whole frame)
+  /// Close range: when the predicted region gave no pose and the track shows no ring set wholly
+  /// in the frame (none can be identified: a set cut by the frame's edge gives no pair of whole
+  /// ellipses), search the code map first and run the rings' full-frame passes only when it
+  /// gives no pose. Off: the passes always run first (the same poses where a cut set is still
+  /// identified, at ~2x the cost of a close-range frame).
+  bool code_first_close_range{true};
   bool code_lattice_from_pose{true}; ///< with that pose, take the grid's two line families
                                      ///< from its predicted vanishing points (else from the
                                      ///< area's dominant side direction)
@@ -363,6 +369,8 @@ void visit_pose_and_code_fields(V& v, VisionParams& p) {
     "code map: local white levels per cell");
   v("code_search_region", p.code_search_region, range::any, "",
     "code map: search where the pose puts it");
+  v("code_first_close_range", p.code_first_close_range, range::any, "",
+    "close range: the code map before the rings' full-frame passes");
   v("code_lattice_from_pose", p.code_lattice_from_pose, range::any, "",
     "code map: grid lines from the pose");
   v("centre_ring_pose", p.centre_ring_pose, range::any, "",
