@@ -140,5 +140,22 @@ TEST(ShadowRender, VehicleShadowFallsWhereTheSunPutsItNearTheOrigin) {
       render_shadow_scene(Eigen::Vector2d(0.0, 0.0), 1.5, Eigen::Vector3d(-0.2, 0.1, -1.0)));
 }
 
+// The shadow map (shadowsize^2 floats, 16 MB at the model's 2048, allocated and cleared by
+// llvmpipe) exists only with render.shadows: without it no light draws into one (issue 53).
+TEST(ShadowRender, ShadowMapOnlyWithShadows) {
+  World world(WorldParams{}, CameraModel{});
+  Renderer renderer(world.model(), RenderParams{});
+  EXPECT_EQ(renderer.shadow_map_px(), 0);
+  EXPECT_EQ(world.model()->vis.quality.shadowsize, 2048);  // the model is left as it was
+}
+
+TEST(ShadowRender, ShadowMapAtTheModelsSizeWithShadows) {
+  World world(WorldParams{}, CameraModel{});
+  RenderParams rp;
+  rp.shadows = true;
+  Renderer renderer(world.model(), rp);
+  EXPECT_EQ(renderer.shadow_map_px(), world.model()->vis.quality.shadowsize);
+}
+
 }  // namespace
 }  // namespace lander::sim

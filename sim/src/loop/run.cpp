@@ -209,7 +209,11 @@ Json run_scenario(const Scenario& s, const RunOptions& o) {
   // No GL at all for a closed loop driven by recorded vision (change indication).
   const bool needs_renderer = s.vehicle.control == "kinematic" || o.replay_vision.empty() || o.video;
   std::unique_ptr<Renderer> renderer;
-  if (needs_renderer) renderer = std::make_unique<Renderer>(world.model(), s.render);
+  if (needs_renderer) {
+    renderer = std::make_unique<Renderer>(world.model(), s.render);
+    // The GL context holds the textures now (with mipmaps); the model's copy goes back.
+    world.release_texture_pixels();
+  }
   // The flight software before any output: a plugin that cannot be loaded or created is a bad
   // input (PluginError, a ConfigError), with nothing written.
   std::unique_ptr<flight::FlightSoftware> flight;

@@ -1,5 +1,8 @@
 #include "lander/sim/plant/world.h"
 
+#include <sys/mman.h>
+#include <unistd.h>
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -100,6 +103,9 @@ World::World(const WorldParams& params, const CameraModel& camera) : camera_(cam
     throw ConfigError(model_path + ": " + e.what());
   }
   if (!m_) throw ConfigError(model_path + ": MuJoCo cannot load the model: " + err);
+  // MuJoCo 2.2 keeps the parsed XML model (with the compiler's copy of every texture, 62 MB
+  // for the default world) until the next load, for mj_saveLastXML, which nothing here calls.
+  mj_freeLastXML();
   d_ = mj_makeData(m_);
   m_->opt.timestep = params.physics_dt_s;
   const std::string& f = model_path;
@@ -131,11 +137,9 @@ World::World(const WorldParams& params, const CameraModel& camera) : camera_(cam
                       std::to_string(kMaxRenderSidePx) + " px");
   }
 
-  set_texture("target_tex", render_target_texture(target_));
-  const int ground_tex = mj_name2id(m_, mjOBJ_TEXTURE, "ground_tex");
-  if (ground_tex >= 0) {
-    set_texture("ground_tex", make_ground_texture(m_->tex_width[ground_tex], params.ground_seed));
-  }
+  ground_seed_ = params.ground_seed;
+  generate_texture("target_tex");
+  if (mj_name2id(m_, mjOBJ_TEXTURE, "ground_tex") >= 0) generate_texture("ground_tex");
   if (painted) paint_route(m_, params.route, route_, model_path);
   mj_forward(m_, d_);
 }
@@ -156,6 +160,69 @@ World::~World() {
 }
 
 void World::set_texture(const std::string& name, const cv::Mat& bgr) {
+  // The model is whole again before one texture changes (a context made from it next
+  // uploads every texture); this one is no longer World's own, so never released.
+  // (This one's pages are all written below.)
+  released_.erase(name);
+  restore_texture_pixels();
+  generated_.erase(name);
+  write_texture(name, bgr);
+}
+
+void World::generate_texture(const std::string& name) {
+  if (name == "target_tex") {
+    write_texture(name, render_target_texture(target_));
+  } else {
+    const int id = mj_name2id(m_, mjOBJ_TEXTURE, name.c_str());
+    write_texture(name, make_ground_texture(m_->tex_width[id], ground_seed_));
+  }
+  generated_.insert(name);
+}
+
+namespace {
+
+// The whole pages inside texture `id`'s pixels (MuJoCo's model is one allocation, so only
+// these can go back to the system); empty when the texture is smaller than two pages.
+std::pair<unsigned char*, std::size_t> texture_pages(const mjModel* m, int id) {
+  const auto page = static_cast<std::uintptr_t>(sysconf(_SC_PAGESIZE));
+  const auto begin = reinterpret_cast<std::uintptr_t>(m->tex_rgb + m->tex_adr[id]);
+  const auto end = begin + static_cast<std::uintptr_t>(m->tex_width[id]) * m->tex_height[id] * 3;
+  const std::uintptr_t first = (begin + page - 1) / page * page, last = end / page * page;
+  if (last <= first) return {nullptr, 0};
+  return {reinterpret_cast<unsigned char*>(first), last - first};
+}
+
+}  // namespace
+
+std::size_t World::release_texture_pixels() {
+  std::size_t released = 0;
+  for (const std::string& name : generated_) {
+    if (released_.count(name)) continue;
+    const auto [pages, bytes] = texture_pages(m_, mj_name2id(m_, mjOBJ_TEXTURE, name.c_str()));
+    // Private anonymous memory (MuJoCo's malloc'd model): the pages are dropped and read back
+    // as zeros until written again.
+    if (bytes > 0 && madvise(pages, bytes, MADV_DONTNEED) != 0) continue;
+    released_.insert(name);
+    released += bytes;
+  }
+  return released;
+}
+
+void World::restore_texture_pixels() {
+  const std::set<std::string> released = std::move(released_);
+  released_.clear();
+  for (const std::string& name : released) generate_texture(name);
+}
+
+std::size_t World::texture_pixel_bytes() const {
+  std::size_t held = static_cast<std::size_t>(m_->ntexdata);
+  for (const std::string& name : released_) {
+    held -= texture_pages(m_, mj_name2id(m_, mjOBJ_TEXTURE, name.c_str())).second;
+  }
+  return held;
+}
+
+void World::write_texture(const std::string& name, const cv::Mat& bgr) {
   const int id = mj_name2id(m_, mjOBJ_TEXTURE, name.c_str());
   if (id < 0) throw ConfigError("model has no texture named '" + name + "'");
   const int w = m_->tex_width[id], h = m_->tex_height[id];

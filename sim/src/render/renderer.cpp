@@ -96,11 +96,17 @@ void Renderer::upload_texture(const mjModel* m, int tex_id) {
 
 void Renderer::make_context(const mjModel* m) {
   // MSAA is a property of MuJoCo's offscreen buffer, read from the model at context creation.
+  // So is the shadow map (shadowsize^2 floats, which llvmpipe allocates and clears: 16 MB at
+  // 2048): without render.shadows no light draws into it, and with size 0 MuJoCo makes none
+  // (mjr_render then lights every light as it does with the shadow flag off).
   mjModel* mm = const_cast<mjModel*>(m);
   const int saved_samples = mm->vis.quality.offsamples;
+  const int saved_shadow = mm->vis.quality.shadowsize;
   mm->vis.quality.offsamples = params_.msaa_samples;
+  if (!params_.shadows) mm->vis.quality.shadowsize = 0;
   mjr_makeContext(m, &context_, mjFONTSCALE_100);
   mm->vis.quality.offsamples = saved_samples;
+  mm->vis.quality.shadowsize = saved_shadow;
   mjr_setBuffer(mjFB_OFFSCREEN, &context_);
   if (context_.currentBuffer != mjFB_OFFSCREEN) {
     throw GlError("offscreen framebuffer not supported by " + gl_->description());

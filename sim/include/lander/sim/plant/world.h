@@ -4,7 +4,10 @@
 // (poses of B, C and P in W) for the logger, the metrics and the tests only.
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
 #include <memory>
+#include <set>
 #include <string>
 
 #include <Eigen/Core>
@@ -128,8 +131,21 @@ class World {
   void reserve_offscreen(int width_px, int height_px);
 
   // Fills a model texture with a BGR image (same size as the placeholder). Call before the
-  // renderer is created (textures are uploaded when the GL context is made).
+  // renderer is created (textures are uploaded when the GL context is made), or re-upload.
+  // Restores released pixels first (restore_texture_pixels()).
   void set_texture(const std::string& name, const cv::Mat& bgr);
+
+  // The model's pixels of the textures World generated itself (target_tex from the target
+  // YAML, ground_tex from ground_seed; not those given to set_texture) go back to the system
+  // once a rendering context holds its own copy: MuJoCo reads mjModel::tex_rgb only when a
+  // context is made or a texture uploaded. Until restore_texture_pixels() (or set_texture())
+  // those pixels read as zeros: no rendering context may be made from the model meanwhile.
+  // Returns the bytes released (whole pages only).
+  std::size_t release_texture_pixels();
+  // Regenerates the released pixels (the same bytes as at load).
+  void restore_texture_pixels();
+  // Bytes of texture pixels the model holds: mjModel::ntexdata less the released pages.
+  std::size_t texture_pixel_bytes() const;
 
   // Distance (m) from point p_W along direction dir_W to the first geom (ground, platform,
   // anything with a collision group), excluding the vehicle itself; -1 if none within 100 m.
@@ -145,6 +161,13 @@ class World {
   int rotor_sites_[6] = {-1, -1, -1, -1, -1, -1};
   int vehicle_qpos_ = -1, vehicle_qvel_ = -1;
   int cart_qpos_[3] = {-1, -1, -1}, cart_dof_[3] = {-1, -1, -1};
+  std::uint64_t ground_seed_ = 0;
+  std::set<std::string> generated_;  ///< textures World filled from its own generators
+  std::set<std::string> released_;   ///< of those, the ones whose pages went back
+  // Fills texture `name` (target_tex or ground_tex) from its generator.
+  void generate_texture(const std::string& name);
+  // Copies a BGR image into the model's pixels of texture `name` (checks the size).
+  void write_texture(const std::string& name, const cv::Mat& bgr);
 };
 
 // The procedural ground texture: asphalt-like value noise with patches (non-uniform), BGR.

@@ -66,7 +66,11 @@ class Renderer {
   std::vector<std::string> backend_devices() const { return gl_->devices(); }
   std::string backend_device_used() const { return gl_->device_used(); }
   const RenderTimes& times() const { return times_; }
-  // MuJoCo's scene render flags (mjRND_*), for `lander bench render`'s variants.
+  // Side of the context's shadow map (px): the model's shadowsize with render.shadows, else 0
+  // (no map is made).
+  int shadow_map_px() const { return context_.shadowFBO ? context_.shadowSize : 0; }
+  // MuJoCo's scene render flags (mjRND_*), for `lander bench render`'s variants
+  // (mjRND_SHADOW draws shadows only in a renderer made with render.shadows).
   mjtByte& scene_flag(int flag) { return scene_.flags[flag]; }
   void reset_times() { times_ = RenderTimes{}; }
   // MuJoCo's own render of the same camera with its default flags and no conversion
