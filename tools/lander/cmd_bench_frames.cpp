@@ -4,7 +4,8 @@
 // with the blur the flight software predicted for it in the loop. The same frames and blur
 // every time, so a change of the detector is measured on the same input: thread CPU per frame
 // by frame class (tracked: the predicted region gave the pose; code: the code map searched;
-// acquisition: neither), detections, and with --baseline (an earlier --csv) the detections
+// acquisition: neither) with the wall time of each stage (predicted region, fallback passes,
+// code map, checks), detections, and with --baseline (an earlier --csv) the detections
 // gained and lost and the largest pose difference where both detect.
 #include <algorithm>
 #include <cmath>
@@ -42,6 +43,7 @@ struct FrameResult {
   Eigen::Vector4d q_CP{Eigen::Vector4d::Constant(std::nan(""))};  // w x y z
   int rings{0};
   double cpu_ms{0.0};
+  RingDetection::StageTimes stage_ms;  // wall time by stage (RingDetection::stage_ms)
 };
 
 double thread_cpu_ms() {
@@ -101,6 +103,7 @@ FrameResult result_of(int index, const RingDetection& d, double cpu_ms) {
   r.frame_class = frame_class(d);
   r.rings = static_cast<int>(d.centres.size());
   r.cpu_ms = cpu_ms;
+  r.stage_ms = d.stage_ms;
   if (d.detected) {
     const Eigen::Quaterniond q(d.X_CP.linear());
     r.p_CP = d.X_CP.translation();
@@ -126,22 +129,27 @@ std::vector<FrameResult> detect_all(const sim::Scenario& s, const std::vector<Sa
 
 void write_results_csv(const std::string& path, const std::vector<FrameResult>& results) {
   sim::CsvWriter w(path, {"frame", "detected", "status", "class", "rings", "cpu_ms", "px_m", "py_m",
-                          "pz_m", "qw", "qx", "qy", "qz"});
+                          "pz_m", "qw", "qx", "qy", "qz", "region_ms", "passes_ms", "code_ms",
+                          "checks_ms"});
   for (const FrameResult& r : results) {
     w.integer(r.index).integer(r.detected ? 1 : 0).text(r.status).text(r.frame_class).integer(r.rings);
     w.num(r.cpu_ms, 3);
     for (int i = 0; i < 3; ++i) w.num(r.p_CP[i], 17);
     for (int i = 0; i < 4; ++i) w.num(r.q_CP[i], 17);
+    const RingDetection::StageTimes& t = r.stage_ms;
+    for (const double ms : {t.region_ms, t.passes_ms, t.code_ms, t.checks_ms}) w.num(ms, 3);
     w.end_row();
   }
   w.commit();
 }
 
-// Per class and over all frames: frames, detected, mean and worst thread CPU (ms).
+// Per class and over all frames: frames, detected, mean and worst thread CPU (ms), and the
+// mean wall time of each stage (ms).
 nlohmann::ordered_json cost_by_class(const std::vector<FrameResult>& results) {
   struct Sum {
     int frames{0}, detected{0};
     double cpu{0.0}, worst{0.0};
+    RingDetection::StageTimes stages;
   };
   std::map<std::string, Sum> sums;
   for (const FrameResult& r : results) {
@@ -151,12 +159,19 @@ nlohmann::ordered_json cost_by_class(const std::vector<FrameResult>& results) {
       s.detected += r.detected ? 1 : 0;
       s.cpu += r.cpu_ms;
       s.worst = std::max(s.worst, r.cpu_ms);
+      s.stages.region_ms += r.stage_ms.region_ms;
+      s.stages.passes_ms += r.stage_ms.passes_ms;
+      s.stages.code_ms += r.stage_ms.code_ms;
+      s.stages.checks_ms += r.stage_ms.checks_ms;
     }
   }
   nlohmann::ordered_json j;
   for (const auto& [k, s] : sums) {
-    j[k] = {{"frames", s.frames}, {"detected", s.detected}, {"cpu_ms_mean", s.cpu / s.frames},
-            {"cpu_ms_total", s.cpu}, {"cpu_ms_worst", s.worst}};
+    const double n = s.frames;
+    j[k] = {{"frames", s.frames}, {"detected", s.detected}, {"cpu_ms_mean", s.cpu / n},
+            {"cpu_ms_total", s.cpu}, {"cpu_ms_worst", s.worst},
+            {"stage_ms_mean", {{"region", s.stages.region_ms / n}, {"passes", s.stages.passes_ms / n},
+                               {"code", s.stages.code_ms / n}, {"checks", s.stages.checks_ms / n}}}};
   }
   return j;
 }

@@ -603,19 +603,23 @@ bool code_first(const FrameContext& f, const Eigen::Isometry3d* track, const Fou
 }  // namespace
 
 void search_rings_and_code(FrameContext& f, const Eigen::Isometry3d* track, Found& found) {
+  auto passes = [&] { timed_stage(f.times.passes_ms, [&] { try_fallback_passes(f, found); }); };
+  auto code_map = [&] {
+    timed_stage(f.times.code_ms, [&] { search_code_map(f, track, found.d); });
+  };
   if (!code_first(f, track, found)) {
-    try_fallback_passes(f, found);
-    search_code_map(f, track, found.d);
+    passes();
+    code_map();
     return;
   }
-  search_code_map(f, track, found.d);
+  code_map();
   if (found.d.code.detected) {
     found.d.rings_skipped = true;
     return;
   }
   // The code map gave no pose: the rings' passes as without it (they replace the detection).
   const CodeSearch code(found.d);
-  try_fallback_passes(f, found);
+  passes();
   code.restore(found.d);
 }
 

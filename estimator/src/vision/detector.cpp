@@ -207,14 +207,21 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vect
   // The rings: the predicted region, then the passes while no pose, and the code map (first
   // at close range); then the poses combined, then the checks every pose must pass.
   vision_internal::Found found;
-  if (track != nullptr) vision_internal::try_predicted_region(f, *track, found);
+  if (track != nullptr) {
+    vision_internal::timed_stage(f.times.region_ms, [&] {
+      vision_internal::try_predicted_region(f, *track, found);
+    });
+  }
   vision_internal::search_rings_and_code(f, track, found);
   RingDetection& d = found.d;
-  vision_internal::combine_sources(d, found.cands, camera_.K(), target_, params_, track);
-  check_faces_camera(d);
-  check_ring_identities(f, track, d);
-  update_track(d, params_.max_frames_without_detection, have_prediction_, X_CP_pred_, misses_);
-  select_keyframe(d, params_, have_keyframe_, X_CP_key_, rejections_);
+  vision_internal::timed_stage(f.times.checks_ms, [&] {
+    vision_internal::combine_sources(d, found.cands, camera_.K(), target_, params_, track);
+    check_faces_camera(d);
+    check_ring_identities(f, track, d);
+    update_track(d, params_.max_frames_without_detection, have_prediction_, X_CP_pred_, misses_);
+    select_keyframe(d, params_, have_keyframe_, X_CP_key_, rejections_);
+  });
+  d.stage_ms = f.times;
   return timed(std::move(d), t0);
 }
 

@@ -9,6 +9,7 @@
 //   (pose_sources.cpp) -> the checks every pose must pass -> tracking and keyframes.
 #pragma once
 
+#include <chrono>
 #include <optional>
 #include <string>
 #include <vector>
@@ -156,6 +157,7 @@ struct FrameContext {
   cv::Mat grey{};           ///< 8-bit grey, converted at least where a pass needed it
   bool grey_full{false};    ///< the whole frame is in `grey` (no more conversion)
   cv::Mat sharp{};          ///< the deconvolved frame, when the deblur pass ran
+  RingDetection::StageTimes times{};  ///< wall time by stage, added by timed_stage()
 
   // Converts the whole frame into `grey` (once).
   void whole_grey();
@@ -164,6 +166,14 @@ struct FrameContext {
   // The frame can hold the target (16 px both ways).
   bool big_enough() const { return full.width >= 16 && full.height >= 16; }
 };
+
+// Runs `stage()` and adds its wall time (ms) to `ms`.
+template <class Stage>
+void timed_stage(double& ms, Stage&& stage) {
+  const auto t0 = std::chrono::steady_clock::now();
+  stage();
+  ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
 
 // The global segmentation first; if it gives no pose, the shadow-tolerant one (issue 12).
 bool search_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam,

@@ -145,6 +145,11 @@ struct RingDetection {
                                  ///< predicted from the platform top's outline)
   cv::Rect roi;                  ///< region searched last (full frame if no ROI)
   double time_ms{0.0};           ///< wall time of detect() (ms)
+  /// Where detect()'s wall time went (ms): the predicted region, the rings' fallback passes,
+  /// the code map, and the poses combined and checked (tracking and keyframe included).
+  struct StageTimes {
+    double region_ms{0.0}, passes_ms{0.0}, code_ms{0.0}, checks_ms{0.0};
+  } stage_ms;
 };
 
 // Reliability of a new pose against the last keyframe, seed 000 eq. (17)-(18):
