@@ -154,6 +154,19 @@ TEST(Cli, UnknownOptionIsNamed) {
   EXPECT_NE(r.output.find("--fast"), std::string::npos) << r.output;
 }
 
+// Given --help (or -h) among a command's or benchmark's arguments, when the command does not
+// take it itself, then its usage line is printed and the exit status is 0, nothing run; any
+// other unknown option stays an error.
+TEST(Cli, HelpAmongTheArgumentsPrintsTheUsage) {
+  for (const char* cmd : {"run --help", "bench frames -h", "detect --help", "batch --help"}) {
+    const auto r = run_lander(cmd);
+    EXPECT_EQ(r.code, 0) << cmd << ": " << r.output;
+    EXPECT_NE(r.output.find("docs/reference/cli.md"), std::string::npos) << cmd << ": " << r.output;
+  }
+  const auto r = run_lander("bench frames --helpful");
+  EXPECT_EQ(r.code, 2) << r.output;
+}
+
 }  // namespace
 
 namespace {

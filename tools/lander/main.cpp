@@ -175,6 +175,13 @@ int main_impl(int argc, char** argv) {
       try {
         return c.run(args);
       } catch (const UsageError& e) {
+        // `--help` among the arguments of a command that does not take it: its summary.
+        if (std::find(args.begin(), args.end(), "--help") != args.end() ||
+            std::find(args.begin(), args.end(), "-h") != args.end()) {
+          std::cout << "lander " << (kind == Kind::Bench ? "bench " : "") << c.summary
+                    << "\n(every option: docs/reference/cli.md)\n";
+          return kExitOk;
+        }
         std::cerr << "lander " << (kind == Kind::Bench ? "bench " : "") << name << ": " << e.what()
                   << "\n";
         return kExitBadInput;
