@@ -17,6 +17,23 @@ namespace {
 
 namespace cm = vision_internal::code_map;
 
+// Whether the pose `X_CP` (none: unknown) puts every code cell at least
+// code_half_res_min_cell_px across: the cell's size at the map's farthest corner.
+bool cells_large(const CameraModel& cam, const TargetGeometry& g, const VisionParams& p,
+                 const Eigen::Isometry3d* X_CP) {
+  if (X_CP == nullptr || !(p.code_half_res_min_cell_px > 0) || g.code.cells == 0) return false;
+  const double s = 0.5 * g.code.side_m();
+  double z_far = 0.0;
+  for (const double x : {-s, s}) {
+    for (const double y : {-s, s}) {
+      const double z = (*X_CP * Eigen::Vector3d(x, y, 0)).z();
+      if (!(z > 0)) return false;
+      z_far = std::max(z_far, z);
+    }
+  }
+  return g.code.cell_m * std::min(cam.fx_px, cam.fy_px) / z_far >= p.code_half_res_min_cell_px;
+}
+
 // Steps 1-5 on `grey` (the camera's whole image, or a region of it with `cam` shifted to
 // it) with the adaptive threshold's block `block` px; `X_CP_prior`, when given, predicts the
 // grid's two line families (step 2).
@@ -32,8 +49,10 @@ CodeDetection detect_code_impl(const cv::Mat& grey, const CameraModel& cam, cons
   };
   if (g.code.cells == 0) return fail("target has no code map");
   if (grey.empty() || grey.type() != CV_8UC1) return fail("need an 8-bit grey frame");
-  // 1. threshold, contours, polygon vertices and sides.
-  const std::optional<cm::GridFeatures> features = cm::find_grid_features(grey, cam, p, block, why);
+  // 1. threshold, contours, polygon vertices and sides (on the frame halved when the prior
+  // shows every cell large).
+  const std::optional<cm::GridFeatures> features = cm::find_grid_features(
+      grey, cam, p, block, cells_large(cam, g, p, X_CP_prior), why);
   if (!features) return fail(why);
   // 2. two line families, vanishing points, affine rectification, lattice labels.
   const std::optional<cm::GridLattice> lattice =

@@ -462,23 +462,36 @@ std::vector<Eigen::Vector2d> undistort_points(const CameraModel& cam,
 }
 
 std::optional<GridFeatures> find_grid_features(const cv::Mat& grey, const CameraModel& cam,
-                                               const VisionParams& p, int block,
+                                               const VisionParams& p, int block, bool halved,
                                                std::string& why) {
+  // On the frame halved: a pixel (i, j) there covers (2i .. 2i + 1, 2j .. 2j + 1) here.
+  cv::Mat half;
+  if (halved) {
+    cv::resize(grey, half, cv::Size(grey.cols / 2, grey.rows / 2), 0, 0, cv::INTER_AREA);
+    block = std::min(block / 2 | 1, (std::min(half.cols, half.rows) / 2) * 2 - 1);
+  }
+  const cv::Mat& src = halved ? half : grey;
+  const double scale = halved ? 2.0 : 1.0;
   if (block < 3) {
     why = "image too small";
     return std::nullopt;
   }
   // Dark cells as foreground, against the mean of their block.
   cv::Mat bin;
-  cv::adaptiveThreshold(grey, bin, 255, cv::ADAPTIVE_THRESH_MEAN_C, cv::THRESH_BINARY_INV, block,
+  cv::adaptiveThreshold(src, bin, 255, cv::ADAPTIVE_THRESH_MEAN_C, cv::THRESH_BINARY_INV, block,
                         p.code_threshold_offset);
   std::vector<std::vector<cv::Point>> contours;
   cv::findContours(bin, contours, cv::RETR_LIST, cv::CHAIN_APPROX_NONE);
   // Their polygons' corners and sides, then both undistorted.
-  const RawPolygonFeatures raw = polygon_features(contours, grey.size(), p.code_min_cell_px);
+  RawPolygonFeatures raw = polygon_features(contours, src.size(), p.code_min_cell_px / scale);
   if (raw.verts.size() < 8) {
     why = std::to_string(raw.verts.size()) + " grid corners found";
     return std::nullopt;
+  }
+  if (halved) {
+    for (auto* pts : {&raw.verts, &raw.side_ends}) {
+      for (cv::Point2f& q : *pts) q = cv::Point2f(2.0f * q.x + 0.5f, 2.0f * q.y + 0.5f);
+    }
   }
   GridFeatures features;
   features.verts = undistort_points(cam, raw.verts);

@@ -71,9 +71,11 @@ struct GridFeatures {
   std::vector<Eigen::Vector2d> verts;
   std::vector<Segment> segs;
 };
-// Stage 1 on `grey` with the adaptive threshold's block `block` px (>= 3).
+// Stage 1 on `grey` with the adaptive threshold's block `block` px (>= 3); with `halved`,
+// on `grey` halved (block, smallest cell and margins halved too), the corners and sides
+// returned in `grey`'s pixels.
 std::optional<GridFeatures> find_grid_features(const cv::Mat& grey, const CameraModel& cam,
-                                               const VisionParams& p, int block,
+                                               const VisionParams& p, int block, bool halved,
                                                std::string& why);
 
 // ---- 2. two line families, vanishing points, affine rectification, lattice labels ----

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <sstream>
 
 #include <opencv2/calib3d.hpp>
@@ -115,9 +116,11 @@ bool merge_shadow_pass(bool found, bool ok, Found& out, Found& s) {
 }  // namespace
 
 bool search_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam,
-                   const TargetGeometry& target, const VisionParams& p, Found& out) {
+                   const TargetGeometry& target, const VisionParams& p, Found& out,
+                   const std::function<bool()>& before_shadow) {
   const bool found = run_region({grey, roi, cam, target, p}, out.d, out.cands);
   if (found && !shadow_crosses(out)) return true;
+  if (!found && before_shadow && before_shadow()) return false;
   if (!p.shadow_pass) return found;
   Found s;
   bool ok = run_region({grey, roi, cam, target, p, true}, s.d, s.cands);
@@ -220,7 +223,7 @@ void try_full_frame(FrameContext& f, Found& so_far) {
     return;
   }
   f.whole_grey();
-  search_region(f.grey, f.full, f.cam, f.target, f.p, so_far);
+  search_region(f.grey, f.full, f.cam, f.target, f.p, so_far, f.before_shadow);
 }
 
 // Blur-aware pass (issue 12): no pose from the frame as it is, and the caller predicts a
@@ -504,7 +507,7 @@ void try_fallback_passes(FrameContext& f, Found& so_far) {
   using Pass = void (*)(FrameContext&, Found&);
   for (const Pass pass : {&try_full_frame, &try_deblurred, &try_unfiltered, &try_zoomed,
                           &try_platform}) {
-    if (so_far.d.detected) return;
+    if (so_far.d.detected || f.rings_stopped) return;
     pass(f, so_far);
   }
 }
@@ -600,6 +603,16 @@ bool code_first(const FrameContext& f, const Eigen::Isometry3d* track, const Fou
          ring_sets_in_view(f, *track) == 0;
 }
 
+// Close range otherwise: a track under which the code map is searched (its cells readable,
+// as search_code_map() decides) and no pose yet.
+bool code_before_shadow(const FrameContext& f, const Eigen::Isometry3d* track,
+                        const Found& found) {
+  if (!(f.p.code_first_close_range && track != nullptr && !found.d.detected)) return false;
+  if (!(f.p.code_enabled && f.target.code.cells > 0 && f.big_enough())) return false;
+  const double z = track->translation().z();
+  return z > 0 && f.target.code.cell_m * f.cam.fx_px / z >= f.p.code_min_cell_px;
+}
+
 }  // namespace
 
 void search_rings_and_code(FrameContext& f, const Eigen::Isometry3d* track, Found& found) {
@@ -607,20 +620,41 @@ void search_rings_and_code(FrameContext& f, const Eigen::Isometry3d* track, Foun
   auto code_map = [&] {
     timed_stage(f.times.code_ms, [&] { search_code_map(f, track, found.d); });
   };
-  if (!code_first(f, track, found)) {
-    passes();
+  if (code_first(f, track, found)) {
     code_map();
+    if (found.d.code.detected) {
+      found.d.rings_skipped = true;
+      return;
+    }
+    // The code map gave no pose: the rings' passes as without it (they replace the detection).
+    const CodeSearch code(found.d);
+    passes();
+    code.restore(found.d);
     return;
   }
-  code_map();
-  if (found.d.code.detected) {
+  // Close range with sets in view: the code map as soon as the whole frame's global
+  // segmentation gives no pose; the shadow pass and the later passes only when it gives none.
+  std::optional<CodeSearch> early;
+  if (code_before_shadow(f, track, found)) {
+    f.before_shadow = [&] {
+      code_map();
+      early.emplace(found.d);
+      f.rings_stopped = found.d.code.detected;
+      return f.rings_stopped;
+    };
+  }
+  passes();
+  f.before_shadow = nullptr;
+  if (f.rings_stopped) {
     found.d.rings_skipped = true;
     return;
   }
-  // The code map gave no pose: the rings' passes as without it (they replace the detection).
-  const CodeSearch code(found.d);
-  passes();
-  code.restore(found.d);
+  // No ring pose after all: the code map as searched early (the same track, the same search).
+  if (early && !found.d.detected) {
+    early->restore(found.d);
+    return;
+  }
+  code_map();
 }
 
 }  // namespace lander::vision_internal

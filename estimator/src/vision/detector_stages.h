@@ -10,6 +10,7 @@
 #pragma once
 
 #include <chrono>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -158,6 +159,10 @@ struct FrameContext {
   bool grey_full{false};    ///< the whole frame is in `grey` (no more conversion)
   cv::Mat sharp{};          ///< the deconvolved frame, when the deblur pass ran
   RingDetection::StageTimes times{};  ///< wall time by stage, added by timed_stage()
+  /// Run by the full-frame pass when its global segmentation gave no pose, before the shadow
+  /// pass: true when it gave the frame a pose, and the rings' passes then stop (rings_stopped).
+  std::function<bool()> before_shadow{};
+  bool rings_stopped{false};
 
   // Converts the whole frame into `grey` (once).
   void whole_grey();
@@ -175,9 +180,11 @@ void timed_stage(double& ms, Stage&& stage) {
   ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// The global segmentation first; if it gives no pose, the shadow-tolerant one (issue 12).
+// The global segmentation first; if it gives no pose, the shadow-tolerant one (issue 12),
+// unless `before_shadow` (when given, run first) returns true: then no ring pose (false).
 bool search_region(const cv::Mat& grey, const cv::Rect& roi, const CameraModel& cam,
-                   const TargetGeometry& target, const VisionParams& p, Found& out);
+                   const TargetGeometry& target, const VisionParams& p, Found& out,
+                   const std::function<bool()>& before_shadow = {});
 
 // The region predicted by the last pose `X_pred`; d.used_roi when it gives a pose.
 void try_predicted_region(FrameContext& f, const Eigen::Isometry3d& X_pred, Found& so_far);

@@ -150,9 +150,9 @@ RefineResult refine_pose_conics(const Eigen::Matrix3d& K, const Eigen::Isometry3
   opts.linear_solver_type = ceres::DENSE_QR;
   opts.max_num_iterations = max_iter;
   opts.num_threads = 1;
-  opts.function_tolerance = 1e-12;
-  opts.gradient_tolerance = 1e-14;
-  opts.parameter_tolerance = 1e-12;
+  opts.function_tolerance = 1e-8;
+  opts.gradient_tolerance = 1e-10;
+  opts.parameter_tolerance = 1e-8;
   opts.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(opts, &problem, &summary);

@@ -130,8 +130,10 @@ struct RingDetection {
   double rho{0.0};  ///< eq. (18) against the last keyframe (0 for the first)
 
   bool used_roi{false};          ///< found in the predicted region (tracking)
-  /// The rings' full-frame passes were not run: close range, the track showed no ring set
-  /// wholly in the frame and the code map gave the pose (code_first_close_range).
+  /// The rings' full-frame passes (or those after the whole frame's global segmentation) were
+  /// not run: close range, the code map gave the pose, searched first because the track showed
+  /// no ring set wholly in the frame, or because the global segmentation gave no pose under a
+  /// track with readable code cells (code_first_close_range).
   bool rings_skipped{false};
   bool deblurred{false};         ///< the pose came from the frame deconvolved for the
                                  ///< predicted blur (detect()'s blur_px)

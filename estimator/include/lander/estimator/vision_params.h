@@ -191,6 +191,11 @@ struct VisionParams {
   /// identity is certain (hundreds of read cells agree with the map). 0.012 holds up to ~2.4 %,
   /// as the ring gates (max_reproj_fraction); 0 keeps the absolute gate alone.
   double code_max_reproj_fraction{0.012};
+  /// With a pose (the rings' or the track's) that puts every code cell at least this big
+  /// (px), the grid's corners and sides (step 1) are found on the frame halved (a quarter of
+  /// the pixels to threshold and trace); the cells are read and the corners refined on the
+  /// whole frame as always. 0 = step 1 always at full resolution.
+  double code_half_res_min_cell_px{24.0};
   bool code_local_white{true};       ///< when one level for all cells gives no placement, read
                                      ///< each cell against its local white (shadows)
   bool code_search_region{true};     ///< with a pose (this frame's rings or the track), search
@@ -199,8 +204,11 @@ struct VisionParams {
   /// Close range: when the predicted region gave no pose and the track shows no ring set wholly
   /// in the frame (none can be identified: a set cut by the frame's edge gives no pair of whole
   /// ellipses), search the code map first and run the rings' full-frame passes only when it
-  /// gives no pose. Off: the passes always run first (the same poses where a cut set is still
-  /// identified, at ~2x the cost of a close-range frame).
+  /// gives no pose. Also, with a track under which the code's cells are readable, when the whole
+  /// frame's global segmentation gives no pose: the code map before the shadow pass and the
+  /// later ring passes, which run only when it gives none. Off: the passes always run first
+  /// (the same poses where a cut set is still identified, at ~2x the cost of a close-range
+  /// frame).
   bool code_first_close_range{true};
   bool code_lattice_from_pose{true}; ///< with that pose, take the grid's two line families
                                      ///< from its predicted vanishing points (else from the
@@ -363,6 +371,9 @@ void visit_pose_and_code_fields(V& v, VisionParams& p) {
     "matched sub-pixel corners needed for the PnP");
   v("code_max_reproj_px", p.code_max_reproj_px, range::positive, "px",
     "corner reprojection RMS gate after refinement");
+  v("code_half_res_min_cell_px", p.code_half_res_min_cell_px, range::non_negative, "px",
+    "with a pose putting every code cell at least this big, the grid's features are found "
+    "at half resolution (0 = never)");
   v("code_max_reproj_fraction", p.code_max_reproj_fraction, range::closed(0, 0.02), "",
     "The gate also grows with the code's size in the image");
   v("code_local_white", p.code_local_white, range::any, "",
