@@ -159,10 +159,7 @@ nlohmann::ordered_json cost_by_class(const std::vector<FrameResult>& results) {
       s.detected += r.detected ? 1 : 0;
       s.cpu += r.cpu_ms;
       s.worst = std::max(s.worst, r.cpu_ms);
-      s.stages.region_ms += r.stage_ms.region_ms;
-      s.stages.passes_ms += r.stage_ms.passes_ms;
-      s.stages.code_ms += r.stage_ms.code_ms;
-      s.stages.checks_ms += r.stage_ms.checks_ms;
+      s.stages += r.stage_ms;
     }
   }
   nlohmann::ordered_json j;

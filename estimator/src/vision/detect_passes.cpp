@@ -549,13 +549,23 @@ std::optional<cv::Rect> code_region(const Eigen::Isometry3d& X_CP, const CameraM
 
 // Code map (seed 001): searched unless the pose (this frame's rings, else the track) shows
 // its cells smaller than code_min_cell_px.
+namespace {
+
+// Whether the code map is searched in this frame under the pose `ref` (none: unknown range):
+// it is on, the frame can hold it, and the pose does not show its cells smaller than
+// code_min_cell_px.
+bool code_searchable(const FrameContext& f, const Eigen::Isometry3d* ref) {
+  if (!(f.p.code_enabled && f.target.code.cells > 0 && f.big_enough())) return false;
+  if (ref == nullptr) return true;
+  const double z = ref->translation().z();
+  return z > 0 && f.target.code.cell_m * f.cam.fx_px / z >= f.p.code_min_cell_px;
+}
+
+}  // namespace
+
 void search_code_map(FrameContext& f, const Eigen::Isometry3d* track, RingDetection& d) {
-  if (!(f.p.code_enabled && f.target.code.cells > 0 && f.big_enough())) return;
   const Eigen::Isometry3d* ref = d.detected ? &d.X_CP : track;
-  if (ref != nullptr) {
-    const double z = ref->translation().z();
-    if (!(z > 0 && f.target.code.cell_m * f.cam.fx_px / z >= f.p.code_min_cell_px)) return;
-  }
+  if (!code_searchable(f, ref)) return;
   d.code_searched = true;
   const auto region = ref != nullptr && f.p.code_search_region
                           ? code_region(*ref, f.cam, f.target, f.p, f.full)
@@ -603,14 +613,11 @@ bool code_first(const FrameContext& f, const Eigen::Isometry3d* track, const Fou
          ring_sets_in_view(f, *track) == 0;
 }
 
-// Close range otherwise: a track under which the code map is searched (its cells readable,
-// as search_code_map() decides) and no pose yet.
+// Close range otherwise: no pose yet and a track under which search_code_map() searches.
 bool code_before_shadow(const FrameContext& f, const Eigen::Isometry3d* track,
                         const Found& found) {
-  if (!(f.p.code_first_close_range && track != nullptr && !found.d.detected)) return false;
-  if (!(f.p.code_enabled && f.target.code.cells > 0 && f.big_enough())) return false;
-  const double z = track->translation().z();
-  return z > 0 && f.target.code.cell_m * f.cam.fx_px / z >= f.p.code_min_cell_px;
+  return f.p.code_first_close_range && track != nullptr && !found.d.detected &&
+         code_searchable(f, track);
 }
 
 }  // namespace

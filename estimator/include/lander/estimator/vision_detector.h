@@ -151,6 +151,13 @@ struct RingDetection {
   /// the code map, and the poses combined and checked (tracking and keyframe included).
   struct StageTimes {
     double region_ms{0.0}, passes_ms{0.0}, code_ms{0.0}, checks_ms{0.0};
+    StageTimes& operator+=(const StageTimes& o) {
+      region_ms += o.region_ms;
+      passes_ms += o.passes_ms;
+      code_ms += o.code_ms;
+      checks_ms += o.checks_ms;
+      return *this;
+    }
   } stage_ms;
 };
 
