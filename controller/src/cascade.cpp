@@ -23,6 +23,7 @@ Eigen::Vector2d clamp_norm(const Eigen::Vector2d& v, double max_norm) {
 CascadeController::CascadeController(const VehicleParams& vehicle, const CascadeParams& gains)
     : v_(vehicle), g_(gains), mixer_(vehicle) {
   g_.validate();
+  limits_ = derive_limits(v_, g_);
   tilt_limit_deg_ = g_.max_tilt_deg;
   descent_limit_mps_ = g_.max_vel_down_mps;
   reset();
@@ -75,13 +76,13 @@ void CascadeController::update_outer(double t_s, const Setpoint& sp, const NavSt
   last_outer_t_ = t_s;
   const double g = v_.gravity_mps2;
 
-  // Position P -> velocity setpoint (feed-forward plus correction), limited.
+  // Position P -> velocity setpoint: the feed-forward plus a correction bounded by the
+  // closing speed, the sum by the vehicle's speed limit (vehicle_limits.h).
   const Eigen::Vector3d e_p = sp.p_W_m - nav.p_W_m;
   Eigen::Vector3d v_sp = sp.v_W_mps;
-  v_sp.x() += g_.pos_kp_xy * e_p.x();
-  v_sp.y() += g_.pos_kp_xy * e_p.y();
+  const Eigen::Vector2d closing = clamp_norm(g_.pos_kp_xy * e_p.head<2>(), g_.max_closing_vel_xy_mps);
+  v_sp.head<2>() = clamp_norm(v_sp.head<2>() + closing, limits_.max_speed_xy_mps);
   v_sp.z() += g_.pos_kp_z * e_p.z();
-  v_sp.head<2>() = clamp_norm(v_sp.head<2>(), g_.max_vel_xy_mps);
   v_sp.z() = std::clamp(v_sp.z(), -descent_limit_mps_, g_.max_vel_up_mps);
 
   // Velocity PI -> acceleration command (with anti-windup clamp on the integral).

@@ -43,6 +43,8 @@ namespace {
 void validate_approach(const LandingParams& L) {
   require(L.approach_max_duration_s >= L.approach_min_duration_s, "approach_max_duration_s",
           "must be >= approach_min_duration_s");
+  require(L.approach_frame == "platform" || L.approach_frame == "world", "approach_frame",
+          "must be platform or world");
 }
 
 // LandingParams: the recovery descent and its visual servo.
@@ -136,6 +138,11 @@ void ControllerParams::validate() const {
   validate_nested("tracker", tracker);
   validate_nested("landing", landing);
   validate_nested("path", path);
+  // The speed limit from the vehicle model needs a drag to balance the thrust against.
+  require(cascade.max_vel_xy_mps > 0.0 || vehicle.drag_linear_Nspm > 0.0 || vehicle.drag_quadratic_Ns2pm2 > 0.0,
+          "cascade.max_vel_xy_mps",
+          "is 0 (from the vehicle model) but vehicle.drag_linear_Nspm and drag_quadratic_Ns2pm2 are both 0: "
+          "no drag limits the speed; give the limit or the drag");
 }
 
 }  // namespace lander::ctl

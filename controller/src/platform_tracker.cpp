@@ -354,8 +354,15 @@ Eigen::Vector3d PlatformTracker::predict(double t_s) const {
   } else if (horizon <= p_.max_poly_extrapolation_s) {
     p = poly.position(t_s);  // eq. 25-27 evaluated at t_d (eq. 28)
   } else {
+    // Beyond the fit's edge: on along the motion model (its turn and braking, issue 56) or
+    // straight on at the filter's velocity (eq. 28's linear continuation).
     const double t_edge = last.t_s + p_.max_poly_extrapolation_s;
-    p = poly.position(t_edge) + velocity() * (t_s - t_edge);
+    if (p_.predict_turns) {
+      const PlatformMotion m = motion();
+      p = poly.position(t_edge) + (m.position_at(t_s) - m.position_at(t_edge));
+    } else {
+      p = poly.position(t_edge) + velocity() * (t_s - t_edge);
+    }
   }
   // Plausibility: the platform cannot have moved faster than its speed bound.
   return last.p_W_m + clamp_norm(p - last.p_W_m, p_.platform_max_speed_mps * horizon + 0.05);

@@ -145,17 +145,33 @@ TEST(ServoIntegral, LearnsTheErrorWhileAlignedAndBoundsIt) {
   const LandingParams L;
   const Eigen::Vector2d e(0.02, -0.01);
   const Eigen::Vector2d zero_accel = Eigen::Vector2d::Zero();
-  const Eigen::Vector2d i1 = servo_integral(Eigen::Vector2d::Zero(), e, e.norm(), zero_accel, 0.1, L);
+  const Eigen::Vector2d zero_v = Eigen::Vector2d::Zero();
+  const Eigen::Vector2d i1 = servo_integral(Eigen::Vector2d::Zero(), e, e.norm(), zero_v, zero_accel, 0.1, L);
   EXPECT_NEAR((i1 - L.servo_ki * e * 0.1).norm(), 0.0, kExact);
   // Bounded in norm by servo_max_correction_m.
   Eigen::Vector2d i = Eigen::Vector2d::Zero();
-  for (int k = 0; k < 100000; ++k) i = servo_integral(i, e, e.norm(), zero_accel, 0.1, L);
+  for (int k = 0; k < 100000; ++k) i = servo_integral(i, e, e.norm(), zero_v, zero_accel, 0.1, L);
   EXPECT_NEAR(i.norm(), L.servo_max_correction_m, kExact);
   // Not while the error is outside the descent gate, nor while the platform accelerates.
   const Eigen::Vector2d far = Eigen::Vector2d(2.0 * L.descent_gate_m, 0.0);
-  EXPECT_EQ(servo_integral(i1, far, far.norm(), zero_accel, 0.1, L), i1);
+  EXPECT_EQ(servo_integral(i1, far, far.norm(), zero_v, zero_accel, 0.1, L), i1);
   const Eigen::Vector2d accel(2.0 * L.servo_int_max_platform_accel_mps2 + 0.1, 0.0);
-  EXPECT_EQ(servo_integral(i1, e, e.norm(), accel, 0.1, L), i1);
+  EXPECT_EQ(servo_integral(i1, e, e.norm(), zero_v, accel, 0.1, L), i1);
+  // Moving: braking along the travel holds it; the same acceleration across the travel (a
+  // steady turn's centripetal part) does not.
+  const Eigen::Vector2d v_travel(4.2, 0.0);
+  EXPECT_EQ(servo_integral(i1, e, e.norm(), v_travel, accel, 0.1, L), i1);
+  const Eigen::Vector2d turning(0.0, accel.x());
+  EXPECT_NEAR((servo_integral(i1, e, e.norm(), v_travel, turning, 0.1, L) - (i1 + L.servo_ki * e * 0.1)).norm(), 0.0,
+              kExact);
+}
+
+TEST(ServoIntegral, AlongTrackAccelerationIsTheTravelComponent) {
+  const Eigen::Vector2d a(0.3, 0.4);  // |a| = 0.5
+  EXPECT_NEAR(along_track_accel_mps2(Eigen::Vector2d(2.0, 0.0), a), 0.3, kExact);
+  EXPECT_NEAR(along_track_accel_mps2(Eigen::Vector2d(0.0, -3.0), a), 0.4, kExact);
+  // Too slow for a direction of travel: the whole magnitude.
+  EXPECT_NEAR(along_track_accel_mps2(Eigen::Vector2d(0.1, 0.0), a), 0.5, kExact);
 }
 
 TEST(Carrot, KeepsTheSetpointWithinItsReachOfTheVehicle) {

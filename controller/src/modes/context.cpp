@@ -109,6 +109,29 @@ void LandingContext::declare_loss(double t_s) {
   loss_motion_ = tracker.motion();
 }
 
+bool LandingContext::check_reach(double t_s) {
+  if (tracker.num_fixes() < kMinFixesForFeedForward) return true;
+  const double speed = horizontal(tracker.velocity());
+  const VehicleLimits& lim = cascade.limits();
+  if (speed + kMinClosingSpeed_mps <= lim.max_speed_xy_mps) return true;
+  if (out_of_reach_speed_mps_ <= 0.0) {
+    out_of_reach_speed_mps_ = speed;
+    log_event(t_s, "out_of_reach",
+              fmt::format("the platform at {:.2f} m/s leaves less than {:.1f} m/s to close with "
+                          "under this vehicle's {:.2f} m/s speed limit ({})",
+                          speed, kMinClosingSpeed_mps, lim.max_speed_xy_mps, lim.speed_source()));
+  }
+  return false;
+}
+
+std::string LandingContext::reach_note() const {
+  if (out_of_reach_speed_mps_ <= 0.0) return "";
+  return fmt::format("; the platform ({:.2f} m/s) was beyond this vehicle's {:.2f} m/s speed "
+                     "limit ({})",
+                     out_of_reach_speed_mps_, cascade.limits().max_speed_xy_mps,
+                     cascade.limits().speed_source());
+}
+
 void LandingContext::check_reacquired(double t_s) {
   if (reacquisitions.empty()) return;
   Reacquisition& r = reacquisitions.back();

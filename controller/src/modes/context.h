@@ -41,6 +41,10 @@ struct RouteInput {
 // within ~1 s unless the follow starts at once, so this must stay small.
 constexpr int kMinFixesForFeedForward = 6;
 
+// A platform faster than the vehicle's speed limit minus this cannot be closed on (m/s): the
+// follow would trail it however long it flew.
+constexpr double kMinClosingSpeed_mps = 0.3;
+
 inline double horizontal(const Eigen::Vector3d& v) { return v.head<2>().norm(); }
 
 inline double yaw_of(const Eigen::Quaterniond& q_WB) {
@@ -109,6 +113,13 @@ class LandingContext {
   void decide(double t_s, const std::string& decision, const std::string& reason);
   // A loss of the target: opens a Reacquisition record with the motion model of now.
   void declare_loss(double t_s);
+  // Observe and approach, every step: whether the platform's estimated speed leaves this
+  // vehicle less than kMinClosingSpeed_mps of its speed limit (vehicle_limits.h) to close
+  // with; the first time in a mode it logs an "out_of_reach" event naming the limit and
+  // where it comes from. reach_note() is "" or that finding for a loss's reason.
+  bool check_reach(double t_s);
+  std::string reach_note() const;
+  void reset_reach() { out_of_reach_speed_mps_ = 0.0; }
   // Closes an open Reacquisition record once the target is re-acquired.
   void check_reacquired(double t_s);
   // The platform's beliefs of this step in diag (platform now, error, clearance, skid drop).
@@ -116,6 +127,7 @@ class LandingContext {
 
  private:
   PlatformMotion loss_motion_;   // motion model when the open loss was declared
+  double out_of_reach_speed_mps_{0.0};  // platform speed of the mode's out_of_reach event
   double last_platform_z_{0.0};  // height of the last fix seen (m), see platform_z()
 };
 

@@ -106,9 +106,14 @@ class ApproachMode final : public LandingMode {
 
  private:
   std::optional<Transition> loss_check(LandingContext& c, const Tick& k) const;
+  void plan_relative(LandingContext& c, const Tick& k);
+  void plan_world(LandingContext& c, const Tick& k);
+  void track_relative(LandingContext& c, const Tick& k) const;
+  Setpoint relative_setpoint(const LandingContext& c, const Tick& k) const;
   void replan(LandingContext& c, const Tick& k);
   std::optional<Transition> recovery_check(const LandingContext& c, const Tick& k) const;
-  CubicTrajectory plan_;
+  CubicTrajectory plan_;  // in W (world), or the offset from the platform (platform)
+  bool relative_{true};   // approach_frame platform
 };
 
 // seed 000 3.3: visual-servo tracking, the bounded final decision and the controlled

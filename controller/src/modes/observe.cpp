@@ -29,6 +29,7 @@ double wide_axis_heading(const Eigen::Vector2d& to_plat, double current_yaw_rad)
 
 void ObserveMode::enter(LandingContext& c, const Tick& k, Mode /*from*/, const std::string& /*reason*/) {
   entry_t_s_ = k.t_s;
+  c.reset_reach();
   // Start the follow point with the vehicle's own velocity relative to the platform
   // estimate (zero without one): no jump in the velocity feed-forward.
   follow_.start(k.nav,
@@ -45,9 +46,10 @@ ModeResult ObserveMode::update(LandingContext& c, const Tick& k) {
   const double t_s = k.t_s;
   if (!c.in_view(t_s, L.loss_timeout_s)) {
     c.declare_loss(t_s);
-    return ModeResult::go(Mode::kSearch,
-                          fmt::format("target lost for {:.2f} s while observing", c.loss_age_s(t_s)));
+    return ModeResult::go(Mode::kSearch, fmt::format("target lost for {:.2f} s while observing{}",
+                                                     c.loss_age_s(t_s), c.reach_note()));
   }
+  c.check_reach(t_s);
   const bool close = L.approach_entry_max_error_m <= 0.0 || !c.tracker.has_fix() ||
                      c.diag.horizontal_error_m <= L.approach_entry_max_error_m;
   const bool waited = t_s - entry_t_s_ >= L.approach_entry_wait_s;

@@ -205,7 +205,7 @@ Setpoint RecoveryMode::servo(LandingContext& c, const Tick& k, double rel_speed,
   h_sp_m_ = d.clearance_sp_m;
   const Eigen::Vector2d e_vec = c.diag.platform_W_m.head<2>() - nav.p_W_m.head<2>();
   const Eigen::Vector2d a_plat = c.tracker.acceleration().head<2>();
-  servo_int_ = servo_integral(servo_int_, e_vec, e_xy, a_plat, dt, L);
+  servo_int_ = servo_integral(servo_int_, e_vec, e_xy, c.diag.platform_v_W_mps.head<2>(), a_plat, dt, L);
   Setpoint sp = c.hold(c.diag.platform_W_m);
   sp.p_W_m.head<2>() += servo_int_;
   sp.p_W_m.head<2>() = carrot_setpoint(nav.p_W_m.head<2>(), sp.p_W_m.head<2>(), L.recovery_max_carrot_m);

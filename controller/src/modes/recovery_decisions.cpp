@@ -79,11 +79,20 @@ DescentStep descend(double h_sp, const DescentInputs& in, const LandingParams& L
 // added to the setpoint; it removes the bias of the lagging velocity feed-forward on curved
 // or accelerating cart paths. It learns only while the platform is not accelerating: a
 // cart's start or stop is a transient the acceleration feed-forward meets, not a bias.
+double along_track_accel_mps2(const Eigen::Vector2d& v, const Eigen::Vector2d& a) {
+  // Below this speed the direction of travel is noise (m/s).
+  constexpr double kMinTravelSpeed_mps = 0.5;
+  const double speed = v.norm();
+  return speed < kMinTravelSpeed_mps ? a.norm() : std::abs(a.dot(v) / speed);
+}
+
 Eigen::Vector2d servo_integral(const Eigen::Vector2d& integral_m, const Eigen::Vector2d& error_W_m,
-                               double error_m, const Eigen::Vector2d& platform_accel_W_mps2, double dt_s,
+                               double error_m, const Eigen::Vector2d& platform_v_W_mps,
+                               const Eigen::Vector2d& platform_accel_W_mps2, double dt_s,
                                const LandingParams& L) {
   Eigen::Vector2d i = integral_m;
-  if (error_m < L.descent_gate_m && platform_accel_W_mps2.norm() < L.servo_int_max_platform_accel_mps2) {
+  if (error_m < L.descent_gate_m &&
+      along_track_accel_mps2(platform_v_W_mps, platform_accel_W_mps2) < L.servo_int_max_platform_accel_mps2) {
     i += L.servo_ki * error_W_m * dt_s;
     const double n = i.norm();
     if (n > L.servo_max_correction_m) i *= L.servo_max_correction_m / n;

@@ -57,10 +57,17 @@ struct DescentStep {
 // height when the error grows, never far below the vehicle.
 DescentStep descend(double clearance_sp_m, const DescentInputs& in, const LandingParams& L);
 
+// The platform's acceleration along its direction of travel (m/s^2, magnitude): speeding up
+// and braking. A steady turn's centripetal part is left out; below kMinTravelSpeed_mps, the
+// whole magnitude.
+double along_track_accel_mps2(const Eigen::Vector2d& platform_v_W_mps, const Eigen::Vector2d& platform_accel_W_mps2);
+
 // The visual-servo integral after one step: the horizontal error (platform - vehicle) is
-// integrated while roughly aligned and the platform not accelerating, bounded in norm.
+// integrated while roughly aligned and the platform neither speeding up nor braking (a steady
+// turn is a bias to learn: the velocity estimate lags the turning velocity), bounded in norm.
 Eigen::Vector2d servo_integral(const Eigen::Vector2d& integral_m, const Eigen::Vector2d& error_W_m,
-                               double error_m, const Eigen::Vector2d& platform_accel_W_mps2, double dt_s,
+                               double error_m, const Eigen::Vector2d& platform_v_W_mps,
+                               const Eigen::Vector2d& platform_accel_W_mps2, double dt_s,
                                const LandingParams& L);
 
 // Carrot: the horizontal setpoint towards target_W_m kept within recovery_max_carrot_m of the

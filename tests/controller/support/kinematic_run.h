@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "lander/controller/landing_controller.h"
+#include "lander/controller/vehicle_limits.h"
 #include "hex_model.h"
 
 namespace lander::ctl::test {
@@ -147,7 +148,8 @@ struct KinematicRun {
           v = sp.v_W_mps + off_rate + kTrackGain_per_s * (sp.p_W_m + off - (p + nav_err));
           // ... at the cascade's speed limits, as the real vehicle.
           const double v_xy = v.head<2>().norm();
-          if (v_xy > params.cascade.max_vel_xy_mps) v.head<2>() *= params.cascade.max_vel_xy_mps / v_xy;
+          const double v_max = derive_limits(params.vehicle, params.cascade).max_speed_xy_mps;
+          if (v_xy > v_max) v.head<2>() *= v_max / v_xy;
           v.z() = std::clamp(v.z(), -params.cascade.max_vel_down_mps, params.cascade.max_vel_up_mps);
           p += v * dt;
         }

@@ -10,6 +10,7 @@
 
 #include "lander/controller/mixer.h"
 #include "lander/controller/params.h"
+#include "lander/controller/vehicle_limits.h"
 #include "lander/core/state.h"
 #include "lander/core/types.h"
 
@@ -76,6 +77,8 @@ class CascadeController {
   const HexMixer& mixer() const { return mixer_; }
   const VehicleParams& vehicle() const { return v_; }
   const CascadeParams& gains() const { return g_; }
+  // The speed and tilt limits derived from the vehicle model and the gains.
+  const VehicleLimits& limits() const { return limits_; }
 
   // Attitude whose body z is along `force_W` and whose heading is `yaw_rad` (rad).
   static Eigen::Quaterniond attitude_from_thrust(const Eigen::Vector3d& force_W, double yaw_rad);
@@ -86,6 +89,7 @@ class CascadeController {
 
   VehicleParams v_;
   CascadeParams g_;
+  VehicleLimits limits_;
   HexMixer mixer_;
   Eigen::Vector3d vel_int_{Eigen::Vector3d::Zero()};   // velocity integral (m/s^2)
   Eigen::Vector3d rate_int_{Eigen::Vector3d::Zero()};  // rate integral (rad/s^2)

@@ -91,7 +91,9 @@ struct LandingEvent {
   /// "cut" (motors cut, either gate), "landed" (contact), "go_around", "lost" (the target
   /// lost high in approach: back to search), "aborted", "low_clearance" (in search,
   /// go-around or abort the ultrasonic's clearance, under search_min_height_m and under the
-  /// fused height, raised the held height; once per mode).
+  /// fused height, raised the held height; once per mode), "out_of_reach" (in observe or
+  /// approach the platform's estimated speed left the vehicle less than 0.3 m/s below its
+  /// speed limit, vehicle_limits.h, to close with; once per observe entry).
   std::string what;
   std::string reason;  ///< human-readable, with the figures that decided it
 };

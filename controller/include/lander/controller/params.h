@@ -24,6 +24,11 @@ struct VehicleParams {
   double w_idle_radps{100.0};                             ///< min rotor speed in flight (rad/s)
   double motor_tau_s{0.05};                               ///< first-order motor lag (s), >= 0
   double gravity_mps2{9.81};                              ///< gravity (m/s^2), > 0
+  // Horizontal drag of the airframe, F = drag_linear v + drag_quadratic v^2 at airspeed v:
+  // the flight software's nominal figures for a ZD850-class frame (they set the speed limit
+  // of vehicle_limits.h, not the plant's drag, which the scenario's wind section holds).
+  double drag_linear_Nspm{0.25};                          ///< N/(m/s), >= 0
+  double drag_quadratic_Ns2pm2{0.06};                     ///< N/(m/s)^2, >= 0
   void validate() const;
 };
 
@@ -38,6 +43,10 @@ void visit_fields(V& v, VehicleParams& p) {
   v("w_idle_radps", p.w_idle_radps, range::any, "rad/s", "min rotor speed in flight");
   v("motor_tau_s", p.motor_tau_s, range::non_negative, "s", "first-order motor lag");
   v("gravity_mps2", p.gravity_mps2, range::positive, "m/s^2", "gravity");
+  v("drag_linear_Nspm", p.drag_linear_Nspm, range::non_negative, "N/(m/s)",
+    "horizontal airframe drag, linear part");
+  v("drag_quadratic_Ns2pm2", p.drag_quadratic_Ns2pm2, range::non_negative, "N/(m/s)^2",
+    "horizontal airframe drag, quadratic part");
 }
 
 // Gains and limits of the cascade (seed 003 section 2, Fig. 3): position -> velocity ->
@@ -52,7 +61,15 @@ struct CascadeParams {
   double vel_kp_z{4.0};              ///< vertical velocity gain (1/s)
   double vel_ki_z{2.0};              ///< vertical velocity integral gain (1/s^2)
   double max_int_accel_mps2{2.0};    ///< anti-windup bound of each integral term (m/s^2)
-  double max_vel_xy_mps{3.0};        ///< horizontal speed limit of the velocity setpoint (m/s)
+  double max_vel_xy_mps{0.0};        ///< horizontal speed limit of the velocity setpoint (m/s);
+                                     ///< 0 (default): from the vehicle model (vehicle_limits.h:
+                                     ///< the airspeed where drag takes max_vel_drag_share of
+                                     ///< the thrust's horizontal part at the tilt limit)
+  double max_vel_drag_share{0.5};    ///< that share, in (0, 1): the rest is left for control
+  double max_closing_vel_xy_mps{3.0};///< the position loop's correction above the setpoint's
+                                     ///< velocity feed-forward (m/s): how fast the vehicle
+                                     ///< closes on a point, moving or not (3 m/s before
+                                     ///< issue 56 bounded the total instead)
   double max_vel_up_mps{2.0};        ///< climb speed limit (m/s)
   double max_vel_down_mps{1.5};      ///< descent speed limit (m/s)
   double max_accel_z_mps2{4.0};      ///< |vertical acceleration command| limit (m/s^2)
@@ -96,8 +113,12 @@ void visit_fields(V& v, CascadeParams& p) {
   v("vel_ki_z", p.vel_ki_z, range::non_negative, "1/s^2", "vertical velocity integral gain");
   v("max_int_accel_mps2", p.max_int_accel_mps2, range::non_negative, "m/s^2",
     "anti-windup bound of each integral term");
-  v("max_vel_xy_mps", p.max_vel_xy_mps, range::positive, "m/s",
-    "horizontal speed limit of the velocity setpoint");
+  v("max_vel_xy_mps", p.max_vel_xy_mps, range::non_negative, "m/s",
+    "horizontal speed limit of the velocity setpoint (0 = from the vehicle model)");
+  v("max_vel_drag_share", p.max_vel_drag_share, range::open(0, 1), "",
+    "share of the horizontal thrust at the tilt limit that drag may take at that speed");
+  v("max_closing_vel_xy_mps", p.max_closing_vel_xy_mps, range::positive, "m/s",
+    "position-loop correction bound above the velocity feed-forward");
   v("max_vel_up_mps", p.max_vel_up_mps, range::positive, "m/s", "climb speed limit");
   v("max_vel_down_mps", p.max_vel_down_mps, range::positive, "m/s", "descent speed limit");
   v("max_accel_z_mps2", p.max_accel_z_mps2, range::positive, "m/s^2",
@@ -143,7 +164,9 @@ struct TrackerParams {
                                         ///< noise jerk of the platform (m/s^3); a cart reaches
                                         ///< its 0.6 m/s^2 of braking in ~0.2 s
   double platform_max_accel_mps2{2.0};  ///< bound of that acceleration estimate (m/s^2)
-  double platform_max_speed_mps{2.0};   ///< plausibility bound of the platform speed (m/s)
+  double platform_max_speed_mps{7.0};   ///< plausibility bound of the platform speed (m/s):
+                                        ///< the platforms expected (MBZIRC's 4.2 m/s vehicle,
+                                        ///< a small boat's 5) with margin; 2 before issue 56
   double history_s{10.0};               ///< how long observations are kept (s)
   double nav_history_s{1.0};            ///< nav-state buffer for latency (s)
   // Motion model for the prediction after a loss (PlatformTracker::motion(), issue 10).
@@ -155,6 +178,11 @@ struct TrackerParams {
                                         ///< estimated (the cart is held at its velocity) (m/s)
   double max_turn_rate_radps{0.5};      ///< bound of the turn rate (rad/s): a 1 m/s cart on a
                                         ///< 2 m radius; tighter is fit noise
+  bool predict_turns{true};             ///< the approach's prediction (predict()) continues
+                                        ///< beyond max_poly_extrapolation_s along motion()'s
+                                        ///< turn and braking instead of straight on: at
+                                        ///< 4.2 m/s on a 30 m arc the straight line put the
+                                        ///< goal 2-3 m outside the arc (issue 56)
   void validate() const;
 };
 
@@ -190,6 +218,8 @@ void visit_fields(V& v, TrackerParams& p) {
     "below this speed no heading");
   v("max_turn_rate_radps", p.max_turn_rate_radps, range::non_negative, "rad/s",
     "bound of the turn rate");
+  v("predict_turns", p.predict_turns, range::any, "",
+    "the approach's prediction follows the motion model's turn and braking");
 }
 
 // Landing mode machine (seed 000 section 3) and the safety behaviour the paper leaves out.
@@ -217,6 +247,13 @@ struct LandingParams {
                                           ///< fast cart (24 deg of roll at 1.4 m/s). The whole
                                           ///< 200-run envelope decided it (README, "The landing
                                           ///< envelope")
+  std::string approach_frame{"platform"}; ///< platform (issue 56): the cubic is planned in the
+                                          ///< platform's frame, from the vehicle's offset to
+                                          ///< approach_epsilon_m above the top, and flown on
+                                          ///< top of the platform's position and velocity now,
+                                          ///< so the vehicle rides along a turning or fast
+                                          ///< platform while it closes; world: seed 000 eq. 29
+                                          ///< in W to the eq. 28 prediction at t_d, replanned
   // recovery: visual servo and controlled descent (seed 000 section 3.3)
   double descent_rate_mps{0.5};           ///< descent rate high above the platform (m/s)
   double descent_rate_near_mps{0.2};      ///< descent rate below near_height_m (m/s)
@@ -264,9 +301,11 @@ struct LandingParams {
                                           ///< 0.6 wound up to -0.15 m while a stop-and-go cart
                                           ///< braked and then held the vehicle behind it
   double servo_max_correction_m{0.15};    ///< bound of that integral correction (m)
-  /// The integral learns only while the platform's estimated acceleration is below this
-  /// (m/s^2): a cart's start or stop is a transient the acceleration feed-forward meets, not a
-  /// bias (README, "Starts and stops fed forward whole").
+  /// The integral learns only while the platform's estimated acceleration along its travel
+  /// is below this (m/s^2): a cart's start or stop is a transient the acceleration
+  /// feed-forward meets, not a bias (README, "Starts and stops fed forward whole"); a steady
+  /// turn's centripetal part is not counted (issue 56: at 4.2 m/s on a 30 m arc, 0.59 m/s^2,
+  /// the integral was frozen and a 10 cm lag outward stayed).
   double servo_int_max_platform_accel_mps2{0.2};
   double platform_accel_ff_gain{1.0};     ///< share of the platform's estimated acceleration
                                           ///< (PlatformTracker::acceleration()) the visual
@@ -465,6 +504,8 @@ void visit_approach_and_descent_fields(V& v, LandingParams& p) {
     "after t_d: enter recovery anyway if in view");
   v("approach_match_velocities", p.approach_match_velocities, range::any, "",
     "true (default since 2026-11-28)");
+  v("approach_frame", p.approach_frame, range::any, "",
+    "platform (the cubic relative to the platform) | world (eq. 29 in W to the eq. 28 prediction)");
   v("descent_rate_mps", p.descent_rate_mps, range::positive, "m/s",
     "descent rate high above the platform");
   v("descent_rate_near_mps", p.descent_rate_near_mps, range::any, "m/s",
