@@ -38,7 +38,8 @@ void visit_fields(V& v, CartMotionParams& p) {
   v("speed_profile", p.speed_profile, range::any, "", "constant | stop_and_go");
   v("start_m", p.start_m, range::any, "m", "platform centre at t");
   v("heading_deg", p.heading_rad, range::any, "deg", "initial heading from W x", M_PI / 180.0);
-  v("speed_mps", p.speed_mps, range::closed(0, 5), "m/s", "cruise speed");
+  v("speed_mps", p.speed_mps, range::closed(0, 15).because("a car at 50 km/h, the fastest landing deck reported"), "m/s",
+    "cruise speed");
   v("turn_radius_m", p.turn_radius_m, range::any, "m", "arc radius; > 0 turns left");
   v("accel_mps2", p.accel_mps2, range::open_closed(0, 5), "m/s^2",
     "stop_and_go acceleration and braking");
