@@ -182,7 +182,7 @@ TEST(CampaignFile, BadDispersionsNameFileLineAndKey) {
       {"negative std", "  cart.speed_mps: {normal: {mean: 1, std: -1}}", "std must be >= 0"},
       {"improbable truncation", "  cart.speed_mps: {normal: {mean: 0, std: 0.001}, min: 3, max: 4}",
        "too improbable"},
-      {"validate() rejects", "  cart.speed_mps: {uniform: [6, 7]}", "which the scenario rejects"},
+      {"validate() rejects", "  cart.speed_mps: {uniform: [16, 17]}", "which the scenario rejects"},
       {"seed", "  seed: {uniform: [0, 1]}", "cannot be dispersed"},
   };
   for (const BadCase& c : cases) {
