@@ -212,7 +212,7 @@ void LandingController::start(double t_s, const NavState& nav) {
 
 // The cascade's limits for the mode in charge: the tilt while tracking the platform, the
 // descent speed near it (recovery), bounded whatever the clearance servo asks.
-void LandingController::apply_outer_limits() {
+void LandingController::apply_outer_limits(double t_s) {
   const modes::LandingContext& c = impl_->ctx;
   const Mode m = c.mode;
   const bool tracking = m == Mode::kObserve || m == Mode::kApproach || m == Mode::kRecovery;
@@ -222,6 +222,10 @@ void LandingController::apply_outer_limits() {
     descent_limit = c.p.landing.max_descent_final_mps;
   } else if (m == Mode::kRecovery && c.diag.gear_clearance_m < c.p.landing.near_height_m) {
     descent_limit = c.p.landing.max_descent_near_mps;
+  }
+  // Over a falling deck the limits hold relative to it.
+  if (m == Mode::kRecovery && c.deck_moving() && c.deck.ready()) {
+    descent_limit += std::max(0.0, -c.deck.predict(t_s).vz_mps);
   }
   impl_->ctx.cascade.set_descent_limit_mps(descent_limit);
 }
@@ -239,19 +243,24 @@ RotorCommand LandingController::step(double t_s, const NavState& nav, const ImuS
   cmd.t_s = t_s;
   if (nav.valid) {
     c.tracker.add_nav(nav);
+    if (c.p.deck.enabled) c.inertial_height.update(t_s, nav, imu, c.p.vehicle.gravity_mps2);
     if (!started_) start(t_s, nav);
   }
   // Vision results in time order, each with the nav state of its own frame time.
   if (started_ && !pending_.empty()) {
     std::sort(pending_.begin(), pending_.end(),
               [](const PlatformObservation& a, const PlatformObservation& b) { return a.t_s < b.t_s; });
-    for (const PlatformObservation& obs : pending_) c.tracker.add_observation(obs);
+    for (const PlatformObservation& obs : pending_) {
+      const int fixes = c.tracker.total_fixes();
+      c.tracker.add_observation(obs);
+      if (c.tracker.total_fixes() > fixes) c.feed_deck(c.tracker.latest());
+    }
     pending_.clear();
   }
   if (started_ && c.mode == Mode::kTouchdown) detect_contact(t_s, imu, nav);
   if (started_ && nav.valid && c.cascade.outer_due(t_s)) {
     last_sp_ = run_mode_machine(t_s, nav);
-    apply_outer_limits();
+    apply_outer_limits(t_s);
     c.cascade.update_outer(t_s, last_sp_, nav);
     c.diag.setpoint = last_sp_;
   }

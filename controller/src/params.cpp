@@ -22,6 +22,11 @@ void VehicleParams::validate() const {
 
 void CascadeParams::validate() const { check_fields(*this); }
 
+void DeckTimingParams::validate() const {
+  check_fields(*this);
+  validate_nested("predictor", predictor);
+}
+
 void TrackerParams::validate() const {
   check_fields(*this);
   require(history_s >= fit_window_s, "history_s", "must be >= fit_window_s");
@@ -138,6 +143,7 @@ void ControllerParams::validate() const {
   validate_nested("tracker", tracker);
   validate_nested("landing", landing);
   validate_nested("path", path);
+  validate_nested("deck", deck);
   // The speed limit from the vehicle model needs a drag to balance the thrust against.
   require(cascade.max_vel_xy_mps > 0.0 || vehicle.drag_linear_Nspm > 0.0 || vehicle.drag_quadratic_Ns2pm2 > 0.0,
           "cascade.max_vel_xy_mps",

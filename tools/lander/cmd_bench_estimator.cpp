@@ -89,7 +89,7 @@ int bench_estimator(const Args& args) {
     bp.empty_frames = 0;
   }
   bp.validate();
-  sim::World world(s.world, s.camera.intrinsics);
+  sim::World world(s.world, s.camera.intrinsics, s.cart.deck_motion.present());
   const CameraModel& cam = s.camera.intrinsics;
   world.set_cart_state(Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
   world.set_vehicle_state(Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(),

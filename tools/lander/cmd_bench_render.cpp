@@ -320,7 +320,7 @@ int bench_render(const Args& args) {
   const int n = static_cast<int>(a.integer("frames", 300, 1));
   if (n < 1) throw UsageError("--frames must be >= 1");
   const sim::Scenario s = bench_scenario(a);
-  sim::World world(s.world, s.camera.intrinsics);
+  sim::World world(s.world, s.camera.intrinsics, s.cart.deck_motion.present());
   sim::apply_plant_truth(s, world);  // the sun casts shadows with --shadows
   sim::Renderer renderer(world.model(), s.render);
   // The pinhole view the camera's image is remapped from (larger than the image with barrel

@@ -2,6 +2,8 @@
 #include "modes/context.h"
 
 #include <algorithm>
+#include <iterator>
+#include <limits>
 
 #include <fmt/format.h>
 
@@ -23,7 +25,70 @@ double skid_drop_m(const Eigen::Vector3d& n_B, const LandingParams& L) {
 }  // namespace
 
 LandingContext::LandingContext(const ControllerParams& params, const CameraMount& mount_in)
-    : p(params), mount(mount_in), cascade(params.vehicle, params.cascade), tracker(params.tracker, mount_in) {}
+    : p(params),
+      mount(mount_in),
+      cascade(params.vehicle, params.cascade),
+      tracker(params.tracker, mount_in),
+      deck(params.deck.predictor) {}
+
+void InertialHeight::update(double t_s, const NavState& nav, const ImuSample& imu, double gravity_mps2) {
+  if (!started_) {
+    started_ = true;
+    t_s_ = t_s;
+    v_mps_ = nav.v_W_mps.z();
+  }
+  const double dt = t_s - t_s_;
+  if (!(dt > 0.0)) return;
+  const double a_z = (nav.q_WB * imu.accel_B_mps2).z() - gravity_mps2;
+  z_m_ += v_mps_ * dt;
+  v_mps_ += (a_z + (nav.v_W_mps.z() - v_mps_) / kLeak_s) * dt;
+  t_s_ = t_s;
+  history_.emplace_back(t_s, z_m_);
+  while (history_.size() > 2 && history_.front().first < t_s - kHistory_s) history_.pop_front();
+}
+
+double InertialHeight::at(double t_s) const {
+  if (history_.empty() || t_s < history_.front().first) return std::numeric_limits<double>::quiet_NaN();
+  if (t_s >= history_.back().first) return history_.back().second + v_mps_ * (t_s - history_.back().first);
+  auto hi = std::lower_bound(history_.begin(), history_.end(), t_s,
+                             [](const std::pair<double, double>& e, double t) { return e.first < t; });
+  auto lo = std::prev(hi);
+  const double u = (t_s - lo->first) / (hi->first - lo->first);
+  return lo->second + u * (hi->second - lo->second);
+}
+
+void LandingContext::feed_deck(const PlatformFix& fix) {
+  if (!p.deck.enabled || fix.p_BP_W_m.norm() > p.deck.sample_max_range_m) return;
+  const double z_vehicle = inertial_height.at(fix.t_s);
+  if (!std::isfinite(z_vehicle)) return;
+  // The normal n = R e_z of R = Ry(pitch) Rx(roll): (sin p cos r, -sin r, cos p cos r).
+  const Eigen::Vector3d n = fix.n_W.normalized();
+  const double roll = -std::asin(std::clamp(n.y(), -1.0, 1.0)), pitch = std::atan2(n.x(), n.z());
+  deck.add({fix.t_s, z_vehicle + fix.p_BP_W_m.z(), roll, pitch});
+}
+
+bool LandingContext::deck_moving() const { return p.deck.enabled && deck.moving(); }
+
+bool LandingContext::deck_quiescent(double t_s, std::string* why, QuiescentWindow* window) const {
+  const DeckTimingParams& D = p.deck;
+  if (!deck.ready()) {
+    *why = fmt::format("deck motion not yet predictable ({:.1f} s of fixes)", deck.history_s());
+    return false;
+  }
+  const auto w = deck.next_quiescent(t_s, D.window_s, D.max_vz_mps, D.max_tilt_rad, D.window_s);
+  // The window must start now (within one scan step) and hold for window_s.
+  if (!w || w->start_s > t_s + D.predictor.quiescent_step_s) {
+    const DeckState s = deck.predict(t_s);
+    *why = fmt::format("deck not quiescent for {:.1f} s: vertical speed {:.2f} m/s, tilt {:.1f} deg now", D.window_s,
+                       s.vz_mps, s.tilt_rad * 180.0 / M_PI);
+    return false;
+  }
+  if (window) *window = *w;
+  const DeckState s = deck.predict(t_s);
+  *why = fmt::format("deck quiescent {:.2f}-{:.2f} s by its prediction (vertical speed {:.2f} m/s, tilt {:.1f} deg)",
+                     w->start_s, w->end_s, s.vz_mps, s.tilt_rad * 180.0 / M_PI);
+  return true;
+}
 
 double LandingContext::platform_z() const {
   return tracker.has_fix() ? tracker.latest().p_W_m.z() : last_platform_z_;

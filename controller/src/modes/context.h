@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cmath>
+#include <deque>
 #include <limits>
 #include <optional>
 #include <string>
@@ -13,6 +14,7 @@
 #include <Eigen/Geometry>
 
 #include "lander/controller/cascade.h"
+#include "lander/controller/deck_motion.h"
 #include "lander/controller/landing_controller.h"
 #include "lander/controller/params.h"
 #include "lander/controller/platform_tracker.h"
@@ -52,6 +54,27 @@ inline double yaw_of(const Eigen::Quaterniond& q_WB) {
   return std::atan2(x.y(), x.x());
 }
 
+// The vehicle's height in an inertial frame for the deck predictor (any datum): the IMU's
+// vertical acceleration integrated, its velocity drawn towards the navigation's vertical
+// velocity with time constant kLeak_s. Over a moving deck the navigation's vertical channel
+// carries the deck's heave (the altitude fusion rides on the ultrasonic and vision, which see
+// the deck); at the deck's periods (4-12 s) this filter passes only 1/(omega tau) of that,
+// while an accelerometer bias becomes a constant velocity offset, a trend the predictor fits.
+class InertialHeight {
+ public:
+  static constexpr double kLeak_s = 30.0;
+  void update(double t_s, const NavState& nav, const ImuSample& imu, double gravity_mps2);
+  // The height at t_s (interpolated over the last kHistory_s); NaN before the first update
+  // or outside the history.
+  double at(double t_s) const;
+
+ private:
+  static constexpr double kHistory_s = 1.0;
+  bool started_{false};
+  double t_s_{0.0}, v_mps_{0.0}, z_m_{0.0};
+  std::deque<std::pair<double, double>> history_;  ///< (t, z)
+};
+
 class LandingContext {
  public:
   LandingContext(const ControllerParams& params, const CameraMount& mount);
@@ -61,6 +84,8 @@ class LandingContext {
   CameraMount mount;
   CascadeController cascade;
   PlatformTracker tracker;
+  DeckMotionPredictor deck;  ///< the platform's heave and tilt (a boat's deck), fed per fix
+  InertialHeight inertial_height;  ///< the vehicle's height for the deck's (every inner step)
   AltitudeEstimate altitude;
   std::optional<GpsSample> broadcast;  ///< the newest accepted platform broadcast
   RouteInput route;
@@ -76,6 +101,20 @@ class LandingContext {
   /// vehicle holds there and the search never follows a route again. NaN time before.
   bool route_ended{false};
   double route_end_t_s{std::numeric_limits<double>::quiet_NaN()};
+
+  // --- a moving deck (controller.deck) -------------------------------------------------
+  // Feeds the newest fix to the deck predictor: its height (the vehicle's inertial height at
+  // the fix's time plus the fix's relative vector) and its normal's roll and pitch about W's axes (the
+  // deck's own axes on a straight course; the tilt's size whatever the course). Fixes farther
+  // than deck.sample_max_range_m from the camera are left out.
+  void feed_deck(const PlatformFix& fix);
+  // The deck moves and its touchdown is timed (controller.deck.enabled and the predictor's
+  // moving()).
+  bool deck_moving() const;
+  // Whether the deck is, by its prediction, quiescent (vertical speed and tilt within their
+  // limits) from t_s for deck.window_s; false while the prediction is not trusted. `why`
+  // says why not, or the window when it is.
+  bool deck_quiescent(double t_s, std::string* why, QuiescentWindow* window = nullptr) const;
 
   // --- records for summary.json --------------------------------------------------------
   LandingDecisionLog decisions;

@@ -139,6 +139,10 @@ class RecoveryMode final : public LandingMode {
   bool wide_committed_{false};
   int wide_departures_{0};  // times the error left the wide gate after the commit
   double wide_left_t_s_{std::numeric_limits<double>::quiet_NaN()};  // outside since (s)
+  bool deck_window(LandingContext& c, const Tick& k, std::string* why);
+  bool deck_moving_{false};  // this step: the deck moves and the touchdown is timed on it
+  double deck_window_end_s_{-std::numeric_limits<double>::infinity()};  // committed period's end
+  std::string deck_window_why_;
 };
 
 // Motors cut, waiting for contact (detected on the inner loop's IMU samples).

@@ -37,11 +37,13 @@ void RecoveryMode::enter(LandingContext& c, const Tick& k, Mode /*from*/, const 
   c.diag.wide_committed = false;
   wide_departures_ = 0;
   wide_left_t_s_ = std::numeric_limits<double>::quiet_NaN();
+  deck_window_end_s_ = -std::numeric_limits<double>::infinity();
 }
 
 ModeResult RecoveryMode::update(LandingContext& c, const Tick& k) {
   const LandingParams& L = c.p.landing;
   if (auto out = exit_check(c, k)) return {Setpoint{}, out};
+  deck_moving_ = c.deck_moving();
   // Horizontal speed relative to the platform, straight from vision (the rate of the
   // relative vector); infinite while there are too few fixes for it.
   Eigen::Vector3d v_rel_vision;
@@ -179,20 +181,46 @@ std::optional<Transition> RecoveryMode::cut_check(LandingContext& c, const Tick&
   const LandingParams& L = c.p.landing;
   const double h = c.diag.gear_clearance_m, e_xy = c.diag.horizontal_error_m;
   const Eigen::Vector3d v_rel = k.nav.v_W_mps - c.diag.platform_v_W_mps;
-  const double h_fused = c.altitude.valid ? c.altitude.h_surface_m - L.gear_height_m : h;
+  // The fused height above the surface assumes a still surface (its ultrasonic set lags a
+  // heaving deck by decimetres): over a moving deck the cut goes on vision's clearance alone.
+  const double h_fused = c.altitude.valid && !deck_moving_ ? c.altitude.h_surface_m - L.gear_height_m : h;
   const double cut_gate = wide_committed_ ? L.wide_gate_m() : L.touchdown_error_m;
   const CutTest test = touchdown_test({fresh, h, h_fused, c.diag.skid_drop_m, e_xy, cut_gate, v_rel.norm()}, L);
-  std::string unsteady;
-  if (!test.pass || !c.tracker.steady(L.steady_window_s, L.steady_tilt_deg, L.max_platform_tilt_deg, &unsteady)) {
+  if (!test.pass) return std::nullopt;
+  // Seed 000's steady platform; on a moving deck instead a quiescent period by its prediction
+  // (a rolling deck is never steady).
+  std::string platform_state = "platform steady";
+  if (deck_moving_) {
+    if (!deck_window(c, k, &platform_state)) return std::nullopt;
+    c.log_event(k.t_s, "deck_cut", platform_state);
+  } else if (!c.tracker.steady(L.steady_window_s, L.steady_tilt_deg, L.max_platform_tilt_deg, &platform_state)) {
     return std::nullopt;
   }
   std::string why = fmt::format("cut: horizontal error {:.3f} m, clearance {:.3f} m (fused {:.3f} m), lowest "
-                                "skid end {:.3f} m (fused {:.3f} m), relative speed {:.2f} m/s, platform steady",
-                                e_xy, h, h_fused, test.lowest_skid_m, test.fused_lowest_skid_m, v_rel.norm());
+                                "skid end {:.3f} m (fused {:.3f} m), relative speed {:.2f} m/s, {}",
+                                e_xy, h, h_fused, test.lowest_skid_m, test.fused_lowest_skid_m, v_rel.norm(),
+                                platform_state);
   if (!wide_committed_) c.decide(k.t_s, "committed_nominal", why);
   Transition cut{Mode::kTouchdown, std::move(why)};
   cut.rerun = false;
   return cut;
+}
+
+// A moving deck's quiescent period: the first step that finds one (LandingContext::
+// deck_quiescent) commits the last centimetres to it, and the period holds until the end
+// predicted then (at most deck.window_s), whatever later fits say: a dash begun is not
+// stopped half-way by a refit. `why` gives the period.
+bool RecoveryMode::deck_window(LandingContext& c, const Tick& k, std::string* why) {
+  if (k.t_s <= deck_window_end_s_) {
+    *why = deck_window_why_;
+    return true;
+  }
+  QuiescentWindow w;
+  if (!c.deck_quiescent(k.t_s, why, &w)) return false;
+  deck_window_end_s_ = std::min(w.end_s, k.t_s + c.p.deck.window_s);
+  deck_window_why_ = *why;
+  c.log_event(k.t_s, "deck_window", *why);
+  return true;
 }
 
 // Visual servo: horizontal setpoint on the platform now, its velocity fed forward; descend at
@@ -201,7 +229,14 @@ Setpoint RecoveryMode::servo(LandingContext& c, const Tick& k, double rel_speed,
   const LandingParams& L = c.p.landing;
   const NavState& nav = k.nav;
   const double h = c.diag.gear_clearance_m, e_xy = c.diag.horizontal_error_m, dt = k.dt_s;
-  const DescentStep d = descend(h_sp_m_, {fresh, wide_committed_, e_xy, rel_speed, h, L.wide_gate_m(), dt}, L);
+  std::string deck_state;
+  const bool quiescent = !deck_moving_ || deck_window(c, k, &deck_state);
+  DescentInputs in{fresh, wide_committed_, e_xy, rel_speed, h, L.wide_gate_m(), dt, quiescent};
+  if (deck_moving_) {
+    in.wait_gap_m = c.p.deck.wait_gap_m;
+    in.final_rate_mps = c.p.deck.descent_rate_mps;
+  }
+  const DescentStep d = descend(h_sp_m_, in, L);
   h_sp_m_ = d.clearance_sp_m;
   const Eigen::Vector2d e_vec = c.diag.platform_W_m.head<2>() - nav.p_W_m.head<2>();
   const Eigen::Vector2d a_plat = c.tracker.acceleration().head<2>();
@@ -217,7 +252,10 @@ Setpoint RecoveryMode::servo(LandingContext& c, const Tick& k, double rel_speed,
   // vertical part is low-passed: a cart's top does not move vertically, what is left is
   // that slowly changing navigation error, and the filter's noise would reach the thrust.
   platform_vz_lp_ += (c.diag.platform_v_W_mps.z() - platform_vz_lp_) * std::min(1.0, dt / kPlatformVzFilter_s);
-  sp.v_W_mps = Eigen::Vector3d(c.diag.platform_v_W_mps.x(), c.diag.platform_v_W_mps.y(), platform_vz_lp_ + d.vz_ff_mps);
+  // A moving deck's heave is no slow navigation error: its predicted vertical speed now (the
+  // fixes' latency made up by the prediction) is fed forward instead.
+  const double platform_vz = deck_moving_ && c.deck.ready() ? c.deck.predict(k.t_s).vz_mps : platform_vz_lp_;
+  sp.v_W_mps = Eigen::Vector3d(c.diag.platform_v_W_mps.x(), c.diag.platform_v_W_mps.y(), platform_vz + d.vz_ff_mps);
   // The platform's horizontal acceleration fed forward (platform_accel_ff_gain, on by
   // default): a stop-and-go cart's 0.6 m/s^2 is otherwise met only by the velocity loop,
   // ~0.35 s behind the cart: 10-20 cm of error at every start and stop. Nothing of it below

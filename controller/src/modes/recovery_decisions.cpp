@@ -44,6 +44,7 @@ CutTest touchdown_test(const CutInputs& in, const LandingParams& L) {
 // (final_wait_gap_m), so the dash into contact once aligned is short (a stop-and-go cart is
 // steady for ~2 s); climb back to final_hold_height_m when the error exceeds twice the
 // touchdown criterion. Committed wide: the wide gate and the cut's relative speed instead.
+// A moving deck: only while it is predicted quiescent (LandingContext::deck_quiescent).
 // The height is servoed like the horizontal position: on the gear clearance measured by
 // vision (h_sp - h), so steps of the navigation height (baro / GPS) cancel.
 DescentStep descend(double h_sp, const DescentInputs& in, const LandingParams& L) {
@@ -51,13 +52,16 @@ DescentStep descend(double h_sp, const DescentInputs& in, const LandingParams& L
   const bool near = h < L.near_height_m;
   const double gate = in.committed_wide ? in.wide_gate_m : near ? L.descent_gate_near_m : L.descent_gate_m;
   // Below the final hold height the slowest rate: the cut happens from it (soft contact).
-  const double rate = h < L.final_hold_height_m ? L.descent_rate_final_mps
+  const double rate = h < L.final_hold_height_m ? in.final_rate_mps.value_or(L.descent_rate_final_mps)
                       : near                    ? L.descent_rate_near_mps
                                                 : L.descent_rate_mps;
-  const bool aligned = in.committed_wide
-                           ? e_xy < in.wide_gate_m && in.rel_speed_mps < L.max_touchdown_rel_speed_mps
-                           : e_xy < L.final_descent_error_m && in.rel_speed_mps < L.final_descent_rel_speed_mps;
-  const double h_floor = (aligned || h > L.final_hold_height_m) ? L.final_hover_gap_m : L.final_wait_gap_m;
+  // On a moving deck the last centimetres wait for a quiescent period too (issue 56).
+  const bool aligned = in.deck_quiescent &&
+                       (in.committed_wide
+                            ? e_xy < in.wide_gate_m && in.rel_speed_mps < L.max_touchdown_rel_speed_mps
+                            : e_xy < L.final_descent_error_m && in.rel_speed_mps < L.final_descent_rel_speed_mps);
+  const double h_floor =
+      (aligned || h > L.final_hold_height_m) ? L.final_hover_gap_m : in.wait_gap_m.value_or(L.final_wait_gap_m);
   if (!in.committed_wide && e_xy > 2.0 * L.touchdown_error_m) h_sp = std::max(h_sp, L.final_hold_height_m);
   double vz_ff = 0.0;
   if (in.fresh && e_xy < gate && h_sp > h_floor) {

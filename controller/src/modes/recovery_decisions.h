@@ -3,6 +3,8 @@
 // test, the clearance descent and the horizontal servo setpoint.
 #pragma once
 
+#include <optional>
+
 #include <Eigen/Core>
 
 #include "lander/controller/params.h"
@@ -47,6 +49,13 @@ struct DescentInputs {
   double clearance_m;   ///< level gear above the top, by vision
   double wide_gate_m;   ///< LandingParams::wide_gate_m()
   double dt_s;
+  bool deck_quiescent{true};  ///< a moving deck is quiescent for deck.window_s (true when
+                              ///< the deck does not move)
+  /// A moving deck: the wait below final_hold_height_m and the rate of the last centimetres
+  /// (deck.wait_gap_m, deck.descent_rate_mps) instead of final_wait_gap_m and
+  /// descent_rate_final_mps.
+  std::optional<double> wait_gap_m;
+  std::optional<double> final_rate_mps;
 };
 struct DescentStep {
   double clearance_sp_m;  ///< the gear-clearance setpoint after this step

@@ -203,7 +203,7 @@ void preflight(const Scenario& s, const RunOptions& o) {
 Json run_scenario(const Scenario& s, const RunOptions& o) {
   preflight(s, o);
   // Load the world (may throw ConfigError for an unreadable model) before writing anything.
-  World world(s.world, s.camera.intrinsics);
+  World world(s.world, s.camera.intrinsics, s.cart.deck_motion.present());
   apply_plant_truth(s, world);
   if (o.video) world.reserve_offscreen(s.video.chase_width_px, s.video.chase_height_px);
   // No GL at all for a closed loop driven by recorded vision (change indication).

@@ -1,5 +1,6 @@
 #include "lander/sim/plant/cart_motion.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -13,6 +14,17 @@ void CartMotionParams::validate() const {
           "must be constant or stop_and_go (got '" + speed_profile + "')");
   require(path != "arc" || std::abs(turn_radius_m) >= 2, "turn_radius_m",
           "|radius| must be >= 2 m");
+  validate_nested("deck_motion", deck_motion);
+  if (deck_motion.present()) {
+    const double low = platform_height_m - deck_motion.peak_heave_m() -
+                       kPlatformHalfSide_m * std::sin(std::min(deck_motion.peak_tilt_rad(), M_PI / 2));
+    require(low >= kDeckGroundClearance_m, "platform_height_m",
+            "must keep the moving deck above the ground: its edge would come " + std::to_string(low) +
+                " m from it at the deck's peaks (heave " + std::to_string(deck_motion.peak_heave_m()) +
+                " m, tilt " + std::to_string(deck_motion.peak_tilt_rad() * 180.0 / M_PI) +
+                " deg); raise it to at least " +
+                std::to_string(platform_height_m - low + kDeckGroundClearance_m) + " m");
+  }
 }
 
 namespace {

@@ -86,6 +86,14 @@ void apply_plant_truth(const Scenario& s, World& world) {
     const int platform = require_named(m, mjOBJ_GEOM, "platform");
     m->geom_pos[3 * platform + 2] += dz;
     m->site_pos[3 * site + 2] += dz;
+    // The compiler marks a geom or site placed where its body's frame or inertial frame is
+    // (models/cart_deck.xml's platform sits at the deck's centre of mass) and then ignores its
+    // pos: moved, it is no longer there.
+    m->geom_sameframe[platform] = 0;
+    m->site_sameframe[site] = 0;
+    if (world.has_deck()) {  // the deck rolls and pitches about the platform's centre
+      for (const char* j : {"deck_roll", "deck_pitch"}) m->jnt_pos[3 * require_named(m, mjOBJ_JOINT, j) + 2] += dz;
+    }
   }
   // Light.
   const LightParams& L = s.world.light;
@@ -109,9 +117,15 @@ Plant::Plant(const Scenario& s, World& world)
   const mjModel* m = world.model();
   cart_mass_kg_ = m->body_mass[world.cart_body()];
   cart_yaw_inertia_ = m->body_inertia[3 * world.cart_body() + 2];
-  // Initial state: cart on its path, vehicle hovering at the start point.
+  // Initial state: cart on its path (the deck on its motion), vehicle hovering at the start.
   const CartReference ref0 = cart_reference(s.cart, 0.0, &world.route());
   world.set_cart_state(ref0.q, ref0.qd);
+  if (s.cart.deck_motion.present()) {
+    if (!world.has_deck()) throw ConfigError("cart.deck_motion: the world was loaded without the deck's joints");
+    deck_waves_ = sim::deck_waves(s.cart.deck_motion, derive_seed(s.seed, "deck"));
+    const DeckReference deck0 = deck_reference(deck_waves_, 0.0);
+    world.set_deck_state(deck0.q, deck0.qd);
+  }
   Eigen::Isometry3d X_WB0 = Eigen::Isometry3d::Identity();
   X_WB0.linear() = Eigen::AngleAxisd(s.vehicle.start_yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   X_WB0.translation() = s.vehicle.start_p_W_m;
@@ -155,20 +169,8 @@ bool Plant::step(int k, const RotorArray& w_cmd, std::string* detail) {
     d->xfrc_applied[6 * vb + i] = f_W[i];
     d->xfrc_applied[6 * vb + 3 + i] = tau_W[i];
   }
-  // Cart drive: PD + feed-forward per joint so the cart follows its path whatever lands on it.
-  // Gains in N/m, N s/m (x, y) and N m/rad, N m s/rad (yaw).
-  {
-    const CartReference ref = cart_reference(s_.cart, t_s, &world_.route());
-    const Eigen::Vector3d q = world_.cart_q(), qd = world_.cart_qd();
-    const double kp[3] = {4000.0, 4000.0, 3000.0}, kd[3] = {1200.0, 1200.0, 500.0};
-    const double inertia[3] = {cart_mass_kg_, cart_mass_kg_, cart_yaw_inertia_};
-    for (int i = 0; i < 3; ++i) {
-      double e = ref.q[i] - q[i];
-      if (i == 2) e = wrap_pi(e);
-      const double damping = m->dof_damping[world_.cart_dof(i)];
-      d->ctrl[i] = inertia[i] * ref.qdd[i] + kp[i] * e + kd[i] * (ref.qd[i] - qd[i]) + damping * ref.qd[i];
-    }
-  }
+  drive_cart(t_s);
+  if (world_.has_deck()) drive_deck(t_s);
   const FaultParams& F = s_.faults;
   if (F.diverge_t_s >= 0 && t_s >= F.diverge_t_s && !diverge_injected_) {
     d->qvel[world_.vehicle_dof_adr() + 2] = std::numeric_limits<double>::quiet_NaN();  // test hook
@@ -191,6 +193,42 @@ bool Plant::step(int k, const RotorArray& w_cmd, std::string* detail) {
     return false;
   }
   return true;
+}
+
+// Cart drive: PD + feed-forward per joint so the cart follows its path whatever lands on it.
+// Gains in N/m, N s/m (x, y) and N m/rad, N m s/rad (yaw).
+void Plant::drive_cart(double t_s) {
+  const mjModel* m = world_.model();
+  mjData* d = world_.data();
+  const CartReference ref = cart_reference(s_.cart, t_s, &world_.route());
+  const Eigen::Vector3d q = world_.cart_q(), qd = world_.cart_qd();
+  const double kp[3] = {4000.0, 4000.0, 3000.0}, kd[3] = {1200.0, 1200.0, 500.0};
+  const double inertia[3] = {cart_mass_kg_, cart_mass_kg_, cart_yaw_inertia_};
+  for (int i = 0; i < 3; ++i) {
+    double e = ref.q[i] - q[i];
+    if (i == 2) e = wrap_pi(e);
+    const double damping = m->dof_damping[world_.cart_dof(i)];
+    d->ctrl[i] = inertia[i] * ref.qdd[i] + kp[i] * e + kd[i] * (ref.qd[i] - qd[i]) + damping * ref.qd[i];
+  }
+}
+
+// Deck drive (motors 3-5 of models/world_deck.xml): the joint's diagonal inertia times the
+// reference acceleration, MuJoCo's bias force (gravity, the cart's motion), the joint damping
+// and a PD at 5 Hz, critically damped, so a landing vehicle (40 N on a 40 kg deck) sags it by
+// 1 mm and tilts it by 0.1 deg.
+void Plant::drive_deck(double t_s) {
+  const mjModel* m = world_.model();
+  mjData* d = world_.data();
+  const DeckReference ref = deck_reference(deck_waves_, t_s);
+  const Eigen::Vector3d q = world_.deck_q(), qd = world_.deck_qd();
+  constexpr double kOmega_radps = 2.0 * M_PI * 5.0;
+  for (int i = 0; i < 3; ++i) {
+    const int dof = world_.deck_dof(i);
+    const double inertia = d->qM[m->dof_Madr[dof]];  // diagonal of the joint-space inertia
+    const double kp = inertia * kOmega_radps * kOmega_radps, kd = 2.0 * inertia * kOmega_radps;
+    d->ctrl[3 + i] = inertia * ref.qdd[i] + d->qfrc_bias[dof] + m->dof_damping[dof] * ref.qd[i] +
+                     kp * (ref.q[i] - q[i]) + kd * (ref.qd[i] - qd[i]);
+  }
 }
 
 void Plant::update_truth(double tn) {

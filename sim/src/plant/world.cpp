@@ -77,20 +77,31 @@ void paint_route(mjModel* m, const RouteParams& rp, const RouteGeometry& route, 
 
 }  // namespace
 
-World::World(const WorldParams& params, const CameraModel& camera) : camera_(camera) {
-  params.validate();
-  camera.validate();
-  install_mujoco_handlers();
-  // A painted route needs the paint's placeholder geoms: the default world is then loaded
-  // as models/world_route.xml (world.xml plus the placeholders, which would cost every other
-  // run ~0.1 ms a physics step). A custom model must hold them itself.
-  const bool painted = params.route.present() || !params.route.paint.empty();
+namespace {
+
+// The MJCF to load: a custom model as given; the default world in the variant the scenario
+// needs. A painted route needs the paint's placeholder geoms (models/world_route.xml: world.xml
+// plus the placeholders, which would cost every other run ~0.1 ms a physics step), a moving
+// deck the deck's joints (world_deck.xml), both world_route_deck.xml. A custom model must hold
+// them itself.
+std::string model_variant(const WorldParams& params, bool painted, bool moving_deck) {
   const std::string default_world = models_dir() + "/world.xml";
   std::error_code ec;
   const bool is_default = params.model_path == default_world ||
                           std::filesystem::equivalent(params.model_path, default_world, ec);
-  const std::string model_path =
-      painted && is_default ? models_dir() + "/world_route.xml" : params.model_path;
+  if (!is_default || (!painted && !moving_deck)) return params.model_path;
+  if (painted && moving_deck) return models_dir() + "/world_route_deck.xml";
+  return models_dir() + (painted ? "/world_route.xml" : "/world_deck.xml");
+}
+
+}  // namespace
+
+World::World(const WorldParams& params, const CameraModel& camera, bool moving_deck) : camera_(camera) {
+  params.validate();
+  camera.validate();
+  install_mujoco_handlers();
+  const bool painted = params.route.present() || !params.route.paint.empty();
+  const std::string model_path = model_variant(params, painted, moving_deck);
   if (!std::ifstream(model_path)) {
     throw ConfigError(model_path + ": cannot open model file");
   }
@@ -125,6 +136,7 @@ World::World(const WorldParams& params, const CameraModel& camera) : camera_(cam
     cart_qpos_[i] = m_->jnt_qposadr[j];
     cart_dof_[i] = m_->jnt_dofadr[j];
   }
+  if (moving_deck) find_deck_joints(f);
   // The MuJoCo camera renders a centred pinhole; its fovy fixes fy = (H / 2) / tan(fovy / 2).
   // Off-centre principal points and distortion are applied after rendering (camera.cpp).
   const cv::Size render = pinhole_render_size(camera_);
@@ -297,7 +309,45 @@ Eigen::Vector3d World::cart_qd() const {
   return {d_->qvel[cart_dof_[0]], d_->qvel[cart_dof_[1]], d_->qvel[cart_dof_[2]]};
 }
 
+void World::find_deck_joints(const std::string& file) {
+  deck_body_ = require_id(m_, mjOBJ_BODY, "deck", file);
+  const char* joints[3] = {"deck_heave", "deck_roll", "deck_pitch"};
+  for (int i = 0; i < 3; ++i) {
+    const int j = require_id(m_, mjOBJ_JOINT, joints[i], file);
+    deck_qpos_[i] = m_->jnt_qposadr[j];
+    deck_dof_[i] = m_->jnt_dofadr[j];
+  }
+  if (m_->nu < 6) {
+    throw ConfigError(file + ": a moving deck needs six motors: the cart's three, then deck_heave, deck_roll, deck_pitch");
+  }
+}
+
+void World::set_deck_state(const Eigen::Vector3d& q, const Eigen::Vector3d& qd) {
+  for (int i = 0; i < 3; ++i) {
+    d_->qpos[deck_qpos_[i]] = q[i];
+    d_->qvel[deck_dof_[i]] = qd[i];
+  }
+}
+
+Eigen::Vector3d World::deck_q() const {
+  return {d_->qpos[deck_qpos_[0]], d_->qpos[deck_qpos_[1]], d_->qpos[deck_qpos_[2]]};
+}
+
+Eigen::Vector3d World::deck_qd() const {
+  return {d_->qvel[deck_dof_[0]], d_->qvel[deck_dof_[1]], d_->qvel[deck_dof_[2]]};
+}
+
 Eigen::Vector3d World::cart_point_velocity_W(const Eigen::Vector3d& p_W) const {
+  if (has_deck()) {
+    // The deck's rigid-body velocity (all six components: the cart's path, heave, roll,
+    // pitch) at p_W: MuJoCo's velocity of the deck body at its centre of mass (xipos: where
+    // mj_objectVelocity puts a body's velocity), world axes.
+    mjtNum v[6];
+    mj_objectVelocity(m_, d_, mjOBJ_BODY, deck_body_, v, 0);
+    const Eigen::Vector3d w(v[0], v[1], v[2]), v_o(v[3], v[4], v[5]);
+    const Eigen::Vector3d o(d_->xipos[3 * deck_body_], d_->xipos[3 * deck_body_ + 1], d_->xipos[3 * deck_body_ + 2]);
+    return v_o + w.cross(p_W - o);
+  }
   const Eigen::Vector3d q = cart_q(), qd = cart_qd();
   const Eigen::Vector3d r(p_W.x() - q.x(), p_W.y() - q.y(), 0.0);
   return Eigen::Vector3d(qd.x(), qd.y(), 0.0) + Eigen::Vector3d(0.0, 0.0, qd.z()).cross(r);

@@ -56,6 +56,19 @@ LandingJudge::LandingJudge(const World& world)
       platform_geom_(geom_id(world.model(), "platform")),
       ground_geom_(geom_id(world.model(), "ground")) {}
 
+// Velocity in W of the platform's point under the vehicle at p_W: the cart's x, y and yaw
+// rates (the deck's six components when it moves).
+Eigen::Vector3d LandingJudge::platform_velocity_below(const Eigen::Vector3d& p_W, const Eigen::Isometry3d& X_WP) const {
+  if (world_.has_deck()) {  // at the platform's point under p_W
+    Eigen::Vector3d p_P = X_WP.inverse() * p_W;
+    p_P.z() = 0.0;
+    return world_.cart_point_velocity_W(X_WP * p_P);
+  }
+  const Eigen::Vector3d qd = world_.cart_qd();
+  const Eigen::Vector3d r = p_W - X_WP.translation();
+  return Eigen::Vector3d(qd.x() - qd.z() * r.y(), qd.y() + qd.z() * r.x(), 0.0);
+}
+
 std::optional<Outcome> LandingJudge::update(double tn, const VehicleTruth& truth, const flight::FlightStatus& st,
                                             const flight::FlightSoftware& fs) {
   const mjModel* m = world_.model();
@@ -76,9 +89,7 @@ std::optional<Outcome> LandingJudge::update(double tn, const VehicleTruth& truth
   if ((on_platform || on_ground) && t_first_contact_ < 0) {
     t_first_contact_ = tn;
     const Eigen::Vector3d p_PB = X_WP.inverse() * truth.X_WB.translation();
-    const Eigen::Vector3d qd = world_.cart_qd();
-    const Eigen::Vector3d r = truth.X_WB.translation() - X_WP.translation();
-    const Eigen::Vector3d v_platform(qd.x() - qd.z() * r.y(), qd.y() + qd.z() * r.x(), 0.0);
+    const Eigen::Vector3d v_platform = platform_velocity_below(truth.X_WB.translation(), X_WP);
     touchdown_["surface"] = on_platform ? "platform" : "ground";
     touchdown_["t_s"] = tn;
     touchdown_["offset_m"] = p_PB.head<2>().norm();
@@ -87,6 +98,11 @@ std::optional<Outcome> LandingJudge::update(double tn, const VehicleTruth& truth
     touchdown_["rel_vertical_speed_mps"] = truth.v_W_mps.z() - v_platform.z();
     touchdown_["tilt_deg"] = tilt_to_platform_rad(truth.X_WB, X_WP) * 180.0 / M_PI;
     touchdown_["mode_at_contact"] = st.mode;
+    if (world_.has_deck()) {  // the deck at contact: its tilt, heave and vertical speed there
+      touchdown_["deck_tilt_deg"] = std::acos(std::clamp(X_WP.linear()(2, 2), -1.0, 1.0)) * 180.0 / M_PI;
+      touchdown_["deck_heave_m"] = world_.deck_q().x();
+      touchdown_["deck_vz_mps"] = v_platform.z();
+    }
   }
   if (on_ground) touched_ground_ = true;
   const double tilt_now = tilt_to_platform_rad(truth.X_WB, X_WP);

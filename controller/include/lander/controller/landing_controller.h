@@ -240,7 +240,7 @@ class LandingController {
   Setpoint run_mode_machine(double t_s, const NavState& nav);
   void detect_contact(double t_s, const ImuSample& imu, const NavState& nav);
   void start(double t_s, const NavState& nav);
-  void apply_outer_limits();
+  void apply_outer_limits(double t_s);
 
   std::unique_ptr<Impl> impl_;
   std::vector<PlatformObservation> pending_;

@@ -8,6 +8,7 @@
 
 #include <Eigen/Core>
 
+#include "lander/controller/deck_motion.h"
 #include "lander/controller/path_guidance.h"
 #include "lander/core/params_io.h"
 
@@ -656,6 +657,84 @@ void visit_fields(V& v, LandingParams& p) {
   visit_search_and_decisions_fields(v, p);
 }
 
+// The deck predictor's keys (deck_motion.h; its validate() keeps the rules across fields).
+template <class V>
+void visit_fields(V& v, DeckMotionParams& p) {
+  v("window_s", p.window_s, range::positive, "s", "history of deck fixes the fit uses");
+  v("min_history_s", p.min_history_s, range::positive, "s", "fit only once the fixes span this long");
+  v("max_components", p.max_components, range::closed(1, 8), "", "sinusoids per channel");
+  v("min_period_s", p.min_period_s, range::positive, "s", "shortest period searched");
+  v("max_period_s", p.max_period_s, range::positive, "s", "longest period searched");
+  v("min_fit_r2", p.min_fit_r2, range::closed(0, 1), "",
+    "a moving channel's fit with a smaller coefficient of determination is not trusted");
+  v("moving_heave_m", p.moving_heave_m, range::positive, "m", "the deck counts as still below this heave amplitude");
+  v("moving_tilt_deg", p.moving_tilt_rad, range::open(0, 90), "deg", "... and below this tilt amplitude",
+    M_PI / 180.0);
+  v("quiescent_step_s", p.quiescent_step_s, range::positive, "s", "time step of the scan for a quiescent period");
+  v("heave_trend_is_drift", p.heave_trend_is_drift, range::any, "",
+    "the heave's linear trend is the fixes' datum drifting: the deck's vertical speed leaves it out");
+  v("backtest_s", p.backtest_s, range::non_negative, "s",
+    "the newest fixes of this span are predicted from the older ones before the fit is trusted; 0 off");
+  v("max_backtest_error_m", p.max_backtest_error_m, range::positive, "m", "largest heave backtest error");
+  v("max_backtest_error_deg", p.max_backtest_error_rad, range::positive, "deg", "largest roll or pitch backtest error",
+    M_PI / 180.0);
+}
+
+// Landing on a moving deck (issue 56): the platform's height and tilt from each fix feed a
+// sum-of-sinusoids predictor (deck_motion.h); when it finds the deck moving, the last
+// centimetres into contact and the cut wait for a quiescent period by its prediction (the
+// deck's vertical speed and tilt small for window_s from now) instead of the cart's
+// steadiness test, and the clearance servo feeds the predicted vertical speed forward.
+struct DeckTimingParams {
+  bool enabled{true};                 ///< time the touchdown on the deck's predicted motion
+  double max_vz_mps{0.25};            ///< deck vertical speed allowed over the window (m/s)
+  double max_tilt_rad{6.0 * M_PI / 180.0};  ///< deck tilt allowed over the window (rad);
+                                      ///< YAML max_tilt_deg
+  double window_s{1.0};               ///< the quiescent period must last this long from now:
+                                      ///< wait_gap_m at descent_rate_mps (0.8 s) and the
+                                      ///< cut's fall (s)
+  double sample_max_range_m{6.0};     ///< fixes further than this from the camera are not fed
+                                      ///< to the predictor (their height noise is decimetres)
+  double wait_gap_m{0.25};            ///< below landing.final_hold_height_m, the gear clearance
+                                      ///< held while the deck is not quiescent (m): above the
+                                      ///< heave the clearance servo lags (final_wait_gap_m's
+                                      ///< 10 cm let a rising deck meet the skids)
+  double descent_rate_mps{0.30};      ///< the last centimetres' rate relative to the deck in a
+                                      ///< quiescent period (m/s): wait_gap_m in 0.8 s
+  DeckMotionParams predictor{landing_predictor()};
+  void validate() const;
+  // The predictor as the touchdown uses it: a deck moves from 10 cm of heave or 3 deg of tilt
+  // (a cart's fixes, braking, turning or in gusts, show up to 1.7 deg and 6 cm of apparent motion; sea
+  // state 2's deck, 0.12 m and 2.5 deg, lands as a cart does); trusted when its fit predicts the newest 1 s
+  // (window_s's horizon) from the older fixes within 10 cm and 3 deg (the fixes' heave wanders
+  // by ~5 cm on the inertial height, InertialHeight; a sea state's components lie closer than
+  // a 12 s window resolves, so 2 s ahead is seldom within 5 cm).
+  static DeckMotionParams landing_predictor() {
+    DeckMotionParams p;
+    p.moving_heave_m = 0.10;
+    p.moving_tilt_rad = 3.0 * M_PI / 180.0;
+    p.backtest_s = 1.0;
+    p.max_backtest_error_m = 0.10;
+    p.max_backtest_error_rad = 3.0 * M_PI / 180.0;
+    return p;
+  }
+};
+
+template <class V>
+void visit_fields(V& v, DeckTimingParams& p) {
+  v("enabled", p.enabled, range::any, "", "time the touchdown on the deck's predicted motion");
+  v("max_vz_mps", p.max_vz_mps, range::positive, "m/s", "deck vertical speed allowed over the window");
+  v("max_tilt_deg", p.max_tilt_rad, range::open(0, 45), "deg", "deck tilt allowed over the window", M_PI / 180.0);
+  v("window_s", p.window_s, range::open_closed(0, 10), "s", "the quiescent period must last this long from now");
+  v("sample_max_range_m", p.sample_max_range_m, range::positive, "m",
+    "fixes further than this from the camera are not fed to the predictor");
+  v("wait_gap_m", p.wait_gap_m, range::closed(0, 1), "m",
+    "below landing.final_hold_height_m, the gear clearance held while the deck is not quiescent");
+  v("descent_rate_mps", p.descent_rate_mps, range::open_closed(0, 1), "m/s",
+    "the last centimetres' rate relative to the deck in a quiescent period");
+  v.nested("predictor", p.predictor);
+}
+
 // Everything the controller reads, one YAML mapping with four sections.
 struct ControllerParams {
   VehicleParams vehicle;
@@ -663,6 +742,7 @@ struct ControllerParams {
   TrackerParams tracker;
   LandingParams landing;
   PathGuidanceParams path;  ///< follow_path mode (seed 003), path_guidance.h
+  DeckTimingParams deck;    ///< a moving deck (issue 56)
   void validate() const;
 };
 
@@ -673,6 +753,7 @@ void visit_fields(V& v, ControllerParams& p) {
   v.nested("tracker", p.tracker);
   v.nested("landing", p.landing);
   v.nested("path", p.path);
+  v.nested("deck", p.deck);
 }
 
 }  // namespace lander::ctl

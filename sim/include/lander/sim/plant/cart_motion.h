@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 
 #include "lander/core/params_io.h"
+#include "lander/sim/plant/deck_motion.h"
 #include "lander/sim/plant/route.h"
 
 namespace lander::sim {
@@ -29,6 +30,8 @@ struct CartMotionParams {
                                           ///< cart stops at the route's end
   double platform_height_m{0.80};         ///< true height of the platform's top above the
                                           ///< ground (m); models/cart.xml has 0.80 m
+  DeckSeaParams deck_motion;           ///< heave, roll and pitch of the platform (a boat's
+                                          ///< deck): models/cart_deck.xml
   void validate() const;
 };
 
@@ -49,8 +52,9 @@ void visit_fields(V& v, CartMotionParams& p) {
   v("route_start_m", p.route_start_m, range::non_negative, "m",
     "path route: arc length of the start");
   v("platform_height_m", p.platform_height_m,
-    range::closed(0.4, 2).because("the platform sits on the cart's posts"), "m",
+    range::closed(0.4, 3).because("the platform sits on the cart's posts, or a boat's deck"), "m",
     "true height of the platform's top above the ground");
+  v.nested("deck_motion", p.deck_motion);
 }
 
 // Cart reference: q = (x, y, yaw) of the platform centre in W and its first two derivatives.

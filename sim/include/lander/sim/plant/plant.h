@@ -7,6 +7,7 @@
 
 #include <string>
 
+#include "lander/sim/plant/deck_motion.h"
 #include "lander/sim/plant/rotor.h"
 #include "lander/sim/scenario.h"
 #include "lander/sim/plant/truth.h"
@@ -36,6 +37,9 @@ class Plant {
   // how; the state is then unusable.
   bool step(int k, const RotorArray& w_cmd, std::string* detail);
 
+  // The deck's sinusoids of this run (empty without cart.deck_motion).
+  const DeckWaves& deck_waves() const { return deck_waves_; }
+
   // Truth after the last step (or at the start).
   const VehicleTruth& truth() const { return truth_; }
   const RotorArray& rotor_speeds_radps() const { return motors_.speeds_radps(); }
@@ -45,6 +49,9 @@ class Plant {
 
  private:
   void update_truth(double t_s);
+  // Joint forces that make the cart follow its path and the deck its motion at t_s.
+  void drive_cart(double t_s);
+  void drive_deck(double t_s);
 
   const Scenario& s_;
   World& world_;
@@ -52,6 +59,7 @@ class Plant {
   WindModel wind_;
   RotorArray thrust_scale_{}, torque_scale_{};
   double cart_mass_kg_{0.0}, cart_yaw_inertia_{0.0};
+  DeckWaves deck_waves_;
   double w_hover_{0.0};
   bool diverge_injected_{false};
   Eigen::Vector3d v_prev_{Eigen::Vector3d::Zero()};

@@ -80,8 +80,11 @@ class World {
  public:
   // Loads the MJCF, applies the camera model (fovy from fy) and fills the textures. Throws
   // ConfigError for a missing/unreadable model or target, MujocoError for a model MuJoCo
-  // rejects, with the file named.
-  World(const WorldParams& params, const CameraModel& camera);
+  // rejects, with the file named. With `moving_deck` (a scenario's cart.deck_motion) the
+  // default world is models/world_deck.xml (the platform on a deck with heave, roll and pitch
+  // joints); a custom model must then have the body "deck" and the joints deck_heave,
+  // deck_roll and deck_pitch with their motors after the cart's.
+  World(const WorldParams& params, const CameraModel& camera, bool moving_deck = false);
   ~World();
   World(const World&) = delete;
   World& operator=(const World&) = delete;
@@ -122,6 +125,13 @@ class World {
   // Velocity in W of a point p_W carried by the cart (its x, y and yaw rates) (m/s).
   Eigen::Vector3d cart_point_velocity_W(const Eigen::Vector3d& p_W) const;
   int cart_dof(int i) const { return cart_dof_[i]; }
+  // The deck's joints (models/cart_deck.xml): (heave m, roll rad, pitch rad), when loaded
+  // with moving_deck.
+  bool has_deck() const { return deck_body_ >= 0; }
+  void set_deck_state(const Eigen::Vector3d& q, const Eigen::Vector3d& qd);
+  Eigen::Vector3d deck_q() const;
+  Eigen::Vector3d deck_qd() const;
+  int deck_dof(int i) const { return deck_dof_[i]; }
   void forward();
   // True when every position and velocity of the physics state is finite.
   bool state_finite() const;
@@ -161,9 +171,12 @@ class World {
   int rotor_sites_[6] = {-1, -1, -1, -1, -1, -1};
   int vehicle_qpos_ = -1, vehicle_qvel_ = -1;
   int cart_qpos_[3] = {-1, -1, -1}, cart_dof_[3] = {-1, -1, -1};
+  int deck_body_ = -1, deck_qpos_[3] = {-1, -1, -1}, deck_dof_[3] = {-1, -1, -1};
   std::uint64_t ground_seed_ = 0;
   std::set<std::string> generated_;  ///< textures World filled from its own generators
   std::set<std::string> released_;   ///< of those, the ones whose pages went back
+  // Finds models/cart_deck.xml's deck body and joints (throws ConfigError naming `file`).
+  void find_deck_joints(const std::string& file);
   // Fills texture `name` (target_tex or ground_tex) from its generator.
   void generate_texture(const std::string& name);
   // Copies a BGR image into the model's pixels of texture `name` (checks the size).

@@ -48,6 +48,8 @@ class LandingJudge {
   double t_first_contact_s() const { return t_first_contact_; }  ///< < 0 before contact
 
  private:
+  Eigen::Vector3d platform_velocity_below(const Eigen::Vector3d& p_W, const Eigen::Isometry3d& X_WP) const;
+
   const World& world_;
   int skid_left_, skid_right_, platform_geom_, ground_geom_;
   double t_first_contact_{-1.0}, t_landed_confirm_{-1.0};
