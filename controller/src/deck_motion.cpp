@@ -166,11 +166,11 @@ Pick best_on_grid(const Grid& g, const Eigen::VectorXd& r) {
 }
 
 // Model (1) with angular frequencies; w_start_radps is where the grid found each one.
-// Columns of the trend before the sinusoids': 1, tau, tau^2 (the samples' datum may drift
-// with a velocity and an acceleration: the inertial height's accelerometer bias).
-constexpr int kTrend = 3;
-
+// Model (1): `trend` columns before the sinusoids': 1, tau and, with quadratic_trend, tau^2
+// (the samples' datum drifting with a velocity and an acceleration: an inertial height's
+// accelerometer bias).
 struct Model {
+  int trend{2};
   double c0{0.0}, c1{0.0}, c2{0.0};
   Eigen::VectorXd w_radps, w_start_radps, a, b;
   int size() const { return static_cast<int>(w_radps.size()); }
@@ -178,16 +178,16 @@ struct Model {
 
 // Columns 1, tau, tau^2, cos(w_k tau), sin(w_k tau) of the linear part of (1), plus `extra` zero
 // columns. (cos and sin of one argument in one loop: the compiler makes one sincos of them.)
-Eigen::MatrixXd design(const Eigen::VectorXd& tau, const Eigen::VectorXd& w, int extra = 0) {
-  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(tau.size(), kTrend + 2 * w.size() + extra);
+Eigen::MatrixXd design(const Eigen::VectorXd& tau, const Eigen::VectorXd& w, int trend, int extra = 0) {
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(tau.size(), trend + 2 * w.size() + extra);
   A.col(0).setOnes();
   A.col(1) = tau;
-  A.col(2) = tau.array().square().matrix();
+  if (trend > 2) A.col(2) = tau.array().square().matrix();
   for (int k = 0; k < w.size(); ++k) {
     for (int i = 0; i < tau.size(); ++i) {
       const double ph = w(k) * tau(i);
-      A(i, kTrend + 2 * k) = std::cos(ph);
-      A(i, kTrend + 1 + 2 * k) = std::sin(ph);
+      A(i, trend + 2 * k) = std::cos(ph);
+      A(i, trend + 1 + 2 * k) = std::sin(ph);
     }
   }
   return A;
@@ -224,15 +224,16 @@ struct Solved {
 // Joint linear least squares of c0, c1, c2, a_k, b_k at the frequencies of `m` (step 4).
 Solved solve_linear(const Eigen::VectorXd& tau, const Eigen::VectorXd& y, const Model& m) {
   const int k_n = m.size();
-  Solved s{m, design(tau, m.w_radps, k_n), {}, 0.0};
-  const auto A_lin = s.A.leftCols(kTrend + 2 * k_n);
+  const int n0 = m.trend;
+  Solved s{m, design(tau, m.w_radps, n0, k_n), {}, 0.0};
+  const auto A_lin = s.A.leftCols(n0 + 2 * k_n);
   const Eigen::VectorXd x = least_squares(A_lin, y);
   s.m.c0 = x(0);
   s.m.c1 = x(1);
-  s.m.c2 = x(2);
+  s.m.c2 = n0 > 2 ? x(2) : 0.0;
   for (int k = 0; k < k_n; ++k) {
-    s.m.a(k) = x(kTrend + 2 * k);
-    s.m.b(k) = x(kTrend + 1 + 2 * k);
+    s.m.a(k) = x(n0 + 2 * k);
+    s.m.b(k) = x(n0 + 1 + 2 * k);
   }
   s.r = y - A_lin * x;
   s.ss = s.r.squaredNorm();
@@ -246,8 +247,9 @@ Eigen::VectorXd frequency_step(const Eigen::VectorXd& tau, Solved* s) {
   const int k_n = s->m.size();
   Eigen::MatrixXd& J = s->A;
   for (int k = 0; k < k_n; ++k) {
-    J.col(kTrend + 2 * k_n + k) =
-        tau.array() * (s->m.b(k) * J.col(kTrend + 2 * k).array() - s->m.a(k) * J.col(kTrend + 1 + 2 * k).array());
+    const int n0 = s->m.trend;
+    J.col(n0 + 2 * k_n + k) =
+        tau.array() * (s->m.b(k) * J.col(n0 + 2 * k).array() - s->m.a(k) * J.col(n0 + 1 + 2 * k).array());
   }
   const Eigen::VectorXd dx = least_squares(J, s->r);
   return dx.tail(k_n);
@@ -294,7 +296,9 @@ void append_component(double w, Model* m) {
 // joint refit and the frequency refinement. sigma is eq. (2)'s noise.
 Solved fit_model(const Eigen::VectorXd& tau, const Eigen::VectorXd& y, const Grid& g,
                  const DeckMotionParams& p, int max_components, double sigma) {
-  Solved s = solve_linear(tau, y, Model{});  // step 1: c0 + c1 tau + c2 tau^2
+  Model trend_only;
+  trend_only.trend = p.quadratic_trend ? 3 : 2;
+  Solved s = solve_linear(tau, y, trend_only);  // step 1: c0 + c1 tau (+ c2 tau^2)
   const double ss_detrended = s.ss;
   const double ss_noise = kNoiseVarianceMargin * sigma * sigma * tau.size();
   const double w_lo = kTwoPi / p.max_period_s;

@@ -86,7 +86,7 @@ TEST(TouchdownTest, ATiltedVehicleStandingOnASkidEndMayCutAboveTheCutHeight) {
 }
 
 DescentInputs descent_at(const LandingParams& L, double clearance_m, double error_m) {
-  return {true, false, error_m, 0.0, clearance_m, L.wide_gate_m(), 0.1};
+  return {true, false, error_m, 0.0, clearance_m, L.wide_gate_m(), 0.1, true, std::nullopt, std::nullopt};
 }
 
 TEST(Descent, DescendsAtTheRateOfItsBandWhileWithinTheGate) {

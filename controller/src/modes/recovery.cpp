@@ -193,7 +193,8 @@ std::optional<Transition> RecoveryMode::cut_check(LandingContext& c, const Tick&
   if (deck_moving_) {
     if (!deck_window(c, k, &platform_state)) return std::nullopt;
     c.log_event(k.t_s, "deck_cut", platform_state);
-  } else if (!c.tracker.steady(L.steady_window_s, L.steady_tilt_deg, L.max_platform_tilt_deg, &platform_state)) {
+  } else if (std::string unsteady;
+             !c.tracker.steady(L.steady_window_s, L.steady_tilt_deg, L.max_platform_tilt_deg, &unsteady)) {
     return std::nullopt;
   }
   std::string why = fmt::format("cut: horizontal error {:.3f} m, clearance {:.3f} m (fused {:.3f} m), lowest "
@@ -231,7 +232,7 @@ Setpoint RecoveryMode::servo(LandingContext& c, const Tick& k, double rel_speed,
   const double h = c.diag.gear_clearance_m, e_xy = c.diag.horizontal_error_m, dt = k.dt_s;
   std::string deck_state;
   const bool quiescent = !deck_moving_ || deck_window(c, k, &deck_state);
-  DescentInputs in{fresh, wide_committed_, e_xy, rel_speed, h, L.wide_gate_m(), dt, quiescent};
+  DescentInputs in{fresh, wide_committed_, e_xy, rel_speed, h, L.wide_gate_m(), dt, quiescent, std::nullopt, std::nullopt};
   if (deck_moving_) {
     in.wait_gap_m = c.p.deck.wait_gap_m;
     in.final_rate_mps = c.p.deck.descent_rate_mps;

@@ -81,7 +81,10 @@ struct KinematicRun {
     Eigen::Vector3d off = Eigen::Vector3d::Zero();  // current offset (see `offset`)
     double yaw = 0.0;
     bool resting = false;
-    double imu_z = kGravity_mps2;  // specific force along z_B read at the next step (m/s^2)
+    // The vehicle's acceleration in W over the last step (m/s^2): a perfect IMU reads the
+    // specific force R_WB^T (a_W + g z_W) at the next step (hovering: +g along z_W; free fall:
+    // 0), so the flight software's inertial height (the deck predictor's) follows p.
+    Eigen::Vector3d a_W = Eigen::Vector3d::Zero();
     int frame = 0, keyframes = 0, pushed_steps = 0;
     constexpr double dt = 0.004;  // 250 Hz: vision and controller on the same clock
     for (int i = 0; i * dt < max_time_s; ++i) {
@@ -109,7 +112,8 @@ struct KinematicRun {
       nav.q_WB = Eigen::Quaterniond(X_WB.linear());
       ImuSample imu;
       imu.t_s = t;
-      imu.accel_B_mps2 = Eigen::Vector3d(0, 0, imu_z);
+      imu.accel_B_mps2 = X_WB.linear().transpose() * (a_W + Eigen::Vector3d(0, 0, kGravity_mps2));
+      const Eigen::Vector3d v_before = v;
       if (std::isfinite(fused_altitude_error_m)) {
         AltitudeEstimate alt;
         alt.t_s = t;
@@ -154,12 +158,10 @@ struct KinematicRun {
           p += v * dt;
         }
         yaw = ctl.diagnostics().setpoint.yaw_rad;
-        imu_z = kGravity_mps2;
       } else if (!resting) {
         // Motors cut: free fall (reads 0) until the gear meets the platform top.
         v.z() -= kGravity_mps2 * dt;
         p += v * dt;
-        imu_z = 0.0;
         const Eigen::Vector3d top = platform.p_W(t);
         if (solid && gear_clearance_m(t, p) <= 0.0) {
           resting = true;
@@ -169,8 +171,8 @@ struct KinematicRun {
       if (resting) {  // carried by the cart, reads +g
         p += platform.v_W(t) * dt;
         v = platform.v_W(t);
-        imu_z = kGravity_mps2;
       }
+      a_W = (v - v_before) / dt;
       if (on_step) on_step(t, p, ctl);
       if (ctl.landed() || (stop_when && stop_when(ctl))) break;
     }

@@ -6,14 +6,14 @@
 //
 // Model of one channel y (heave z in m, roll or pitch in rad), tau = t - t_ref with t_ref the
 // newest sample at the fit:
-//   y(tau)  = c0 + c1 tau + c2 tau^2 + sum_k [a_k cos(w_k tau) + b_k sin(w_k tau)],  w_k = 2 pi f_k
+//   y(tau)  = c0 + c1 tau [+ c2 tau^2] + sum_k [a_k cos(w_k tau) + b_k sin(w_k tau)],  w_k = 2 pi f_k
 //   y'(tau) = c1 + 2 c2 tau + sum_k w_k [b_k cos(w_k tau) - a_k sin(w_k tau)]            (1)
 // with f_k in [1/max_period_s, 1/min_period_s] and at most max_components terms.
 //
 // Fit of one channel over the samples of the last window_s (DeckMotionPredictor::fit):
-//  1. Least squares of c0 + c1 tau + c2 tau^2 (a datum drifting with a velocity and an
-//     acceleration, as an inertial height does); its residual r is what the sinusoids must
-//     explain.
+//  1. Least squares of c0 + c1 tau (+ c2 tau^2 with quadratic_trend: a datum drifting with
+//     an acceleration, as an inertial height does); its residual r is what the sinusoids
+//     must explain.
 //  2. Noise: sigma from the three-point residuals e_i = y_i - (w- y_{i-1} + w+ y_{i+1}) (linear
 //     interpolation of the neighbours; a smooth deck motion cancels to O(dt^2 y'')):
 //       sigma = 1.4826 median(|e_i| / sqrt(1 + w-^2 + w+^2))                               (2)
@@ -60,6 +60,10 @@ struct DeckMotionParams {
   double moving_heave_m{0.05};     ///< the deck counts as still below this heave amplitude (m)
   double moving_tilt_rad{0.0175};  ///< ... and below this tilt amplitude (rad)
   double quiescent_step_s{0.01};   ///< time step of next_quiescent's scan of the prediction (s)
+  /// A quadratic trend c2 tau^2 besides c0 + c1 tau (a datum drifting with an acceleration,
+  /// as an inertial height on a biased accelerometer does); it costs extrapolation: 2 s ahead
+  /// of a 12 s fit of a clean deck errs ~3 cm and ~0.7 deg with it, a few mm without.
+  bool quadratic_trend{false};
   /// The heave's trend (c1 + 2 c2 tau) is the samples' datum drifting, not the deck:
   /// predict()'s vz_mps (and so next_quiescent) leaves it out.
   bool heave_trend_is_drift{true};

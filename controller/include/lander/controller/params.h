@@ -671,6 +671,8 @@ void visit_fields(V& v, DeckMotionParams& p) {
   v("moving_tilt_deg", p.moving_tilt_rad, range::open(0, 90), "deg", "... and below this tilt amplitude",
     M_PI / 180.0);
   v("quiescent_step_s", p.quiescent_step_s, range::positive, "s", "time step of the scan for a quiescent period");
+  v("quadratic_trend", p.quadratic_trend, range::any, "",
+    "fit a quadratic datum drift besides the linear one (the inertial height's accelerometer bias)");
   v("heave_trend_is_drift", p.heave_trend_is_drift, range::any, "",
     "the heave's linear trend is the fixes' datum drifting: the deck's vertical speed leaves it out");
   v("backtest_s", p.backtest_s, range::non_negative, "s",
@@ -711,6 +713,7 @@ struct DeckTimingParams {
   // a 12 s window resolves, so 2 s ahead is seldom within 5 cm).
   static DeckMotionParams landing_predictor() {
     DeckMotionParams p;
+    p.quadratic_trend = true;  // the inertial height drifts with the accelerometer's bias
     p.moving_heave_m = 0.10;
     p.moving_tilt_rad = 3.0 * M_PI / 180.0;
     p.backtest_s = 1.0;
