@@ -76,15 +76,14 @@ bool LandingContext::deck_quiescent(double t_s, std::string* why, QuiescentWindo
     return false;
   }
   const auto w = deck.next_quiescent(t_s, D.window_s, D.max_vz_mps, D.max_tilt_rad, D.window_s);
+  const DeckState s = deck.predict(t_s);
   // The window must start now (within one scan step) and hold for window_s.
   if (!w || w->start_s > t_s + D.predictor.quiescent_step_s) {
-    const DeckState s = deck.predict(t_s);
     *why = fmt::format("deck not quiescent for {:.1f} s: vertical speed {:.2f} m/s, tilt {:.1f} deg now", D.window_s,
                        s.vz_mps, s.tilt_rad * 180.0 / M_PI);
     return false;
   }
   if (window) *window = *w;
-  const DeckState s = deck.predict(t_s);
   *why = fmt::format("deck quiescent {:.2f}-{:.2f} s by its prediction (vertical speed {:.2f} m/s, tilt {:.1f} deg)",
                      w->start_s, w->end_s, s.vz_mps, s.tilt_rad * 180.0 / M_PI);
   return true;

@@ -143,6 +143,8 @@ class RecoveryMode final : public LandingMode {
   bool deck_moving_{false};  // this step: the deck moves and the touchdown is timed on it
   double deck_window_end_s_{-std::numeric_limits<double>::infinity()};  // committed period's end
   std::string deck_window_why_;
+  bool deck_quiescent_{true};  // this step: not a moving deck, or in a quiescent period
+  std::string deck_state_;     // this step: deck_window's reason
 };
 
 // Motors cut, waiting for contact (detected on the inner loop's IMU samples).

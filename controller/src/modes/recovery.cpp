@@ -53,6 +53,8 @@ ModeResult RecoveryMode::update(LandingContext& c, const Tick& k) {
   start_final_stage(c, k);
   if (auto out = final_decision(c, k, rel_speed, fresh)) return {Setpoint{}, out};
   if (auto out = wide_gate_watch(c, k)) return {Setpoint{}, out};
+  // A moving deck's quiescent period, once a step: the cut and the descent both ask it.
+  deck_quiescent_ = !deck_moving_ || deck_window(c, k, &deck_state_);
   if (auto cut = cut_check(c, k, fresh)) return {c.hold(k.nav.p_W_m), cut};
   return ModeResult::stay(servo(c, k, rel_speed, fresh));
 }
@@ -191,7 +193,8 @@ std::optional<Transition> RecoveryMode::cut_check(LandingContext& c, const Tick&
   // (a rolling deck is never steady).
   std::string platform_state = "platform steady";
   if (deck_moving_) {
-    if (!deck_window(c, k, &platform_state)) return std::nullopt;
+    if (!deck_quiescent_) return std::nullopt;
+    platform_state = deck_state_;
     c.log_event(k.t_s, "deck_cut", platform_state);
   } else if (std::string unsteady;
              !c.tracker.steady(L.steady_window_s, L.steady_tilt_deg, L.max_platform_tilt_deg, &unsteady)) {
@@ -230,9 +233,8 @@ Setpoint RecoveryMode::servo(LandingContext& c, const Tick& k, double rel_speed,
   const LandingParams& L = c.p.landing;
   const NavState& nav = k.nav;
   const double h = c.diag.gear_clearance_m, e_xy = c.diag.horizontal_error_m, dt = k.dt_s;
-  std::string deck_state;
-  const bool quiescent = !deck_moving_ || deck_window(c, k, &deck_state);
-  DescentInputs in{fresh, wide_committed_, e_xy, rel_speed, h, L.wide_gate_m(), dt, quiescent, std::nullopt, std::nullopt};
+  DescentInputs in{fresh, wide_committed_, e_xy, rel_speed, h, L.wide_gate_m(), dt, deck_quiescent_, std::nullopt,
+                   std::nullopt};
   if (deck_moving_) {
     in.wait_gap_m = c.p.deck.wait_gap_m;
     in.final_rate_mps = c.p.deck.descent_rate_mps;

@@ -294,20 +294,26 @@ void World::set_vehicle_state(const Eigen::Isometry3d& X_WB, const Eigen::Vector
   }
 }
 
+namespace {
+
+// Three entries of MuJoCo's state vector `v` at the addresses `adr` (the cart's or the deck's
+// three joints), and the other way.
+Eigen::Vector3d gather3(const mjtNum* v, const int (&adr)[3]) { return {v[adr[0]], v[adr[1]], v[adr[2]]}; }
+
+void scatter3(const Eigen::Vector3d& x, const int (&adr)[3], mjtNum* v) {
+  for (int i = 0; i < 3; ++i) v[adr[i]] = x[i];
+}
+
+}  // namespace
+
 void World::set_cart_state(const Eigen::Vector3d& q, const Eigen::Vector3d& qd) {
-  for (int i = 0; i < 3; ++i) {
-    d_->qpos[cart_qpos_[i]] = q[i];
-    d_->qvel[cart_dof_[i]] = qd[i];
-  }
+  scatter3(q, cart_qpos_, d_->qpos);
+  scatter3(qd, cart_dof_, d_->qvel);
 }
 
-Eigen::Vector3d World::cart_q() const {
-  return {d_->qpos[cart_qpos_[0]], d_->qpos[cart_qpos_[1]], d_->qpos[cart_qpos_[2]]};
-}
+Eigen::Vector3d World::cart_q() const { return gather3(d_->qpos, cart_qpos_); }
 
-Eigen::Vector3d World::cart_qd() const {
-  return {d_->qvel[cart_dof_[0]], d_->qvel[cart_dof_[1]], d_->qvel[cart_dof_[2]]};
-}
+Eigen::Vector3d World::cart_qd() const { return gather3(d_->qvel, cart_dof_); }
 
 void World::find_deck_joints(const std::string& file) {
   deck_body_ = require_id(m_, mjOBJ_BODY, "deck", file);
@@ -323,19 +329,13 @@ void World::find_deck_joints(const std::string& file) {
 }
 
 void World::set_deck_state(const Eigen::Vector3d& q, const Eigen::Vector3d& qd) {
-  for (int i = 0; i < 3; ++i) {
-    d_->qpos[deck_qpos_[i]] = q[i];
-    d_->qvel[deck_dof_[i]] = qd[i];
-  }
+  scatter3(q, deck_qpos_, d_->qpos);
+  scatter3(qd, deck_dof_, d_->qvel);
 }
 
-Eigen::Vector3d World::deck_q() const {
-  return {d_->qpos[deck_qpos_[0]], d_->qpos[deck_qpos_[1]], d_->qpos[deck_qpos_[2]]};
-}
+Eigen::Vector3d World::deck_q() const { return gather3(d_->qpos, deck_qpos_); }
 
-Eigen::Vector3d World::deck_qd() const {
-  return {d_->qvel[deck_dof_[0]], d_->qvel[deck_dof_[1]], d_->qvel[deck_dof_[2]]};
-}
+Eigen::Vector3d World::deck_qd() const { return gather3(d_->qvel, deck_dof_); }
 
 Eigen::Vector3d World::cart_point_velocity_W(const Eigen::Vector3d& p_W) const {
   if (has_deck()) {
