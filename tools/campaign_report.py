@@ -3,7 +3,8 @@
 
 Usage: python3 tools/campaign_report.py DIR
 
-Reads DIR/campaign.json, DIR/campaign.csv and, for runs that did not land,
+Reads DIR/campaign.json, DIR/campaign.csv, every run's DIR/runs/<id>/summary.json
+(for the moving-deck figures) and, for runs that did not land and a few deck runs,
 DIR/runs/<id>/trace.csv and DIR/runs/<id>/run.json; writes DIR/report.html
 atomically (DIR/report.html.tmp, then rename). Every plot is a base64 PNG data
 URI and the page has no external resources and no script, so it opens from
@@ -48,6 +49,7 @@ import html  # noqa: E402
 import io  # noqa: E402
 import json  # noqa: E402
 import math  # noqa: E402
+import re  # noqa: E402
 import struct  # noqa: E402
 
 import matplotlib  # noqa: E402
@@ -73,6 +75,19 @@ MODE_COLOURS = {"search": "#1f77b4", "observe": "#17becf", "approach": "#2ca02c"
                 "go_around": "#d62728", "aborted": "#7f7f7f", "follow_path": "#bcbd22"}
 OTHER_MODE_COLOUR = "#8c564b"
 WILSON_Z = 1.959963984540054
+# Moving deck. The issue's criterion for a soft contact: |vehicle minus deck vertical speed| at
+# first contact at most this.
+DECK_REL_VZ_LIMIT_MPS = 0.5
+# CoM height above the surface when standing (models/flight.yaml controller.landing.gear_height_m): the
+# trace's z_WB_m minus this is where a level vehicle's skids are.
+GEAR_HEIGHT_M = 0.25
+DECK_PLOT_BEFORE_S = 15.0      # the time plots show this much before the contact (or the run's end)
+DECK_PLOT_AFTER_S = 2.0        # and this much after it
+DECK_WINDOW_FALLBACK_S = 1.0   # a deck_window whose reason has no "a-b s" is taken as [t_s, t_s + this]
+MAX_DECK_RUN_PLOTS = 3
+# Legend entries of the deck time plots other than the vehicle's modes.
+DECK_LABELS = ("deck window (predicted quiescent)", "deck top (z_WP)", "deck_cut (motors cut)", "first contact")
+DECK_WINDOW_RE = re.compile(r"quiescent\s+([0-9]+(?:\.[0-9]*)?)\s*-\s*([0-9]+(?:\.[0-9]*)?)\s*s\b")
 
 
 class BadInput(Exception):
@@ -222,6 +237,8 @@ def read_trace(path):
         return None
     reader = csv.DictReader(io.StringIO(text))
     fields = [c for c in (reader.fieldnames or []) if c]
+    if not fields:
+        return {}  # empty, or a blank first line: no header
     numeric = [c for c in fields if c != "mode"]
     cols = {c: [] for c in fields}
     try:
@@ -251,6 +268,26 @@ def read_run_json(d, run_id):
         return doc if isinstance(doc, dict) else {}
     except (OSError, ValueError):
         return {}
+
+
+def read_run_summary(d, run_id):
+    """(DIR/runs/<id>/summary.json as a dict, None) or (None, why it could not be read)."""
+    run_dir = safe_run_dir(d, run_id)
+    if run_dir is None:
+        return None, "run id not usable as a directory name"
+    path = os.path.join(run_dir, "summary.json")
+    try:
+        with open(path, "rb") as f:
+            doc = json.loads(f.read().decode("utf-8", errors="replace"))
+    except FileNotFoundError:
+        return None, "no summary.json"
+    except OSError as e:
+        return None, "summary.json unreadable: %s" % (e.strerror or e)
+    except ValueError as e:
+        return None, "summary.json not valid JSON: %s" % e
+    if not isinstance(doc, dict):
+        return None, "summary.json not a JSON object"
+    return doc, None
 
 
 def safe_run_dir(d, run_id):
@@ -422,6 +459,270 @@ def section_touchdown(rows, names, colours, limit):
                      fontsize=8, color="0.3")
     axes[0].legend(loc="upper left", bbox_to_anchor=(0.0, -0.12), ncol=3, fontsize=8, frameon=False)
     out.append(fig_to_img(fig, "touchdown", "touchdown points in the platform frame"))
+    return "\n".join(out)
+
+
+# ---------------------------------------------------------------------------------------------
+# moving deck
+
+def deck_events(events):
+    """([(start, end)] of the deck_window events, [t_s] of the deck_cut events) from
+    landing_decision.events. A window's span comes from its reason ("deck quiescent a-b s ..."),
+    else it is [t_s, t_s + DECK_WINDOW_FALLBACK_S]."""
+    windows, cuts = [], []
+    for e in events if isinstance(events, list) else []:
+        if not isinstance(e, dict):
+            continue
+        t = num(e.get("t_s"))
+        if e.get("what") == "deck_cut" and t is not None:
+            cuts.append(t)
+        elif e.get("what") == "deck_window":
+            m = DECK_WINDOW_RE.search(str(e.get("reason") or ""))
+            a, b = (num(m.group(1)), num(m.group(2))) if m else (None, None)
+            if a is None or b is None or b <= a:
+                if t is None:
+                    continue
+                a, b = t, t + DECK_WINDOW_FALLBACK_S
+            windows.append((a, b))
+    return windows, cuts
+
+
+def deck_record(row, summ):
+    """The deck figures of one run (row of campaign.csv, its summary.json), or None if its
+    touchdown has none (no contact, or not a moving deck)."""
+    td = summ.get("touchdown")
+    if not isinstance(td, dict) or "deck_tilt_deg" not in td:
+        return None
+    windows, cuts = deck_events(getd(summ, "landing_decision", "events"))
+    rel = num(td.get("rel_vertical_speed_mps"))
+    landed = (is_true(row.get("landed")) if str(row.get("landed", "")).strip()
+              else summ.get("landed") is True)
+    return {"id": row.get("id", ""), "scenario": row.get("scenario", ""), "landed": landed,
+            "outcome": row.get("outcome") or summ.get("outcome") or "",
+            "t_contact": num(td.get("t_s")), "rel_vz": rel, "abs_rel_vz": None if rel is None else abs(rel),
+            "deck_vz": num(td.get("deck_vz_mps")), "deck_tilt": num(td.get("deck_tilt_deg")),
+            "mode": str(td.get("mode_at_contact") or ""), "windows": windows, "cuts": cuts}
+
+
+def collect_deck_runs(d, rows):
+    """(deck records, [(run id, why its summary.json was not read)])."""
+    recs, skipped = [], []
+    for r in rows:
+        summ, why = read_run_summary(d, r.get("id", ""))
+        if summ is None:
+            skipped.append((r.get("id", ""), why))
+            continue
+        rec = deck_record(r, summ)
+        if rec is not None:
+            recs.append(rec)
+    return recs, skipped
+
+
+def deck_stats_row(label, recs, overall=False):
+    speeds = [r["abs_rel_vz"] for r in recs if r["abs_rel_vz"] is not None]
+    soft = sum(1 for v in speeds if v <= DECK_REL_VZ_LIMIT_MPS)
+    tilts = [r["deck_tilt"] for r in recs if r["deck_tilt"] is not None]
+    share = ("&ndash;" if not speeds
+             else "%d / %d (%.1f%%)" % (soft, len(speeds), 100.0 * soft / len(speeds)))
+    cells = [
+        "<th>%s</th>" % esc(label),
+        "<td>%d</td>" % len(recs),
+        "<td>%d</td>" % sum(1 for r in recs if r["landed"]),
+        "<td>%s</td>" % share,
+        "<td>%s</td>" % fmt(float(np.median(speeds)) if speeds else None, 1, 2),
+        "<td>%s</td>" % fmt(max(speeds) if speeds else None, 1, 2),
+        "<td>%s</td>" % fmt(max(tilts) if tilts else None, 1, 1),
+        "<td>%d</td>" % sum(1 for r in recs if r["mode"] == "recovery"),
+        "<td>%d</td>" % sum(1 for r in recs if r["cuts"]),
+    ]
+    return '<tr%s>%s</tr>' % (' class="overall"' if overall else "", "".join(cells))
+
+
+def deck_table(recs, names):
+    per = {}
+    for r in recs:
+        per.setdefault(r["scenario"], []).append(r)
+    out = ['<table class="stats deck"><thead>',
+           '<tr><th rowspan="2">scenario</th><th rowspan="2">runs with deck figures</th>'
+           '<th rowspan="2">landed</th><th rowspan="2">|rel. vertical speed| &le; %.1f m/s</th>'
+           '<th colspan="2">|rel. vertical speed| (m/s)</th><th rowspan="2">deck tilt max (deg)</th>'
+           '<th rowspan="2">contacts before the cut</th><th rowspan="2">runs with a deck_cut</th></tr>'
+           % DECK_REL_VZ_LIMIT_MPS,
+           "<tr><th>median</th><th>max</th></tr></thead><tbody>"]
+    used = [n for n in names if n in per] + sorted(set(per) - set(names))
+    for n in used:
+        out.append(deck_stats_row(n, per[n]))
+    if len(used) > 1:
+        out.append(deck_stats_row("all deck runs", recs, overall=True))
+    out.append("</tbody></table>")
+    return "\n".join(out)
+
+
+def deck_scatter(recs, names, colours):
+    pts = [r for r in recs if r["deck_vz"] is not None and r["rel_vz"] is not None]
+    if not pts:
+        return placeholder("no run has both the deck's and the relative vertical speed at contact")
+    lim = DECK_REL_VZ_LIMIT_MPS
+    fig, ax = plt.subplots(figsize=(8, 5))
+    ax.axhspan(-lim, lim, color="#2ca02c", alpha=0.08, lw=0, zorder=0)
+    ax.axhline(-lim, color="#d62728", lw=1.2, ls="--", label="|rel. vertical speed| = %.1f m/s" % lim)
+    ax.axhline(lim, color="#d62728", lw=1.2, ls="--")
+    ax.axhline(0, color="0.7", lw=0.6, zorder=0)
+    ax.axvline(0, color="0.7", lw=0.6, zorder=0)
+    for n in names + sorted({r["scenario"] for r in pts} - set(names)):
+        sub = [r for r in pts if r["scenario"] == n]
+        labelled = False
+        for landed, marker in ((True, "o"), (False, "X")):
+            s = [r for r in sub if r["landed"] == landed]
+            if not s:
+                continue
+            ax.scatter([r["deck_vz"] for r in s], [r["rel_vz"] for r in s], s=30, marker=marker,
+                       color=colours.get(n, OTHER_MODE_COLOUR), edgecolors="k", linewidths=0.3, zorder=3,
+                       label=None if labelled else "%s (n=%d)" % (mpl_text(n), len(sub)))
+            labelled = True
+    if any(not r["landed"] for r in pts):
+        ax.scatter([], [], s=30, marker="X", color="0.6", edgecolors="k", linewidths=0.3, label="did not land")
+    ys = [r["rel_vz"] for r in pts]
+    pad = 0.1 * max(lim, max(ys) - min(ys))
+    ax.set_ylim(min(min(ys), -lim) - pad, max(max(ys), lim) + pad)
+    ax.set_xlabel("deck vertical speed at contact (m/s)")
+    ax.set_ylabel("relative vertical speed at contact (m/s)\nvehicle minus deck, < 0 closing")
+    ax.grid(True, lw=0.3, alpha=0.5)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+    return fig_to_img(fig, "deck_scatter", "deck vertical speed vs relative vertical speed at contact")
+
+
+def pick_deck_runs(recs):
+    """[(record, why shown)]: the largest and the median |rel. vertical speed|, and a run that
+    did not land (the one with the largest |rel. vertical speed|) unless one is shown already."""
+    ranked = sorted((r for r in recs if r["abs_rel_vz"] is not None), key=lambda r: (r["abs_rel_vz"], r["id"]))
+    picks = []
+    if ranked:
+        picks.append((ranked[-1], "largest |rel. vertical speed| at contact"))
+        if len(ranked) > 1:
+            picks.append((ranked[(len(ranked) - 1) // 2], "median |rel. vertical speed| at contact"))
+    failed = [r for r in recs if not r["landed"]]
+    if failed and all(r["landed"] for r, _ in picks):
+        failed.sort(key=lambda r: (-(r["abs_rel_vz"] if r["abs_rel_vz"] is not None else -1.0), r["id"]))
+        picks.append((failed[0], "did not land"))
+    return picks[:MAX_DECK_RUN_PLOTS]
+
+
+def plain(x, fmt_s, none="?"):
+    """A number for a matplotlib label (fmt() writes HTML)."""
+    v = num(x)
+    return none if v is None else fmt_s % v
+
+
+def deck_plot_span(t, rec):
+    """(start, end) of a run's time plot: DECK_PLOT_BEFORE_S before the last of the first contact
+    and the deck_cuts (or the run's end) to DECK_PLOT_AFTER_S after it, widened to the first
+    contact if that came earlier."""
+    t0, t1 = float(np.nanmin(t)), float(np.nanmax(t))
+    marks = [x for x in [rec["t_contact"]] + rec["cuts"] if x is not None]
+    end = min(t1, max(marks) + DECK_PLOT_AFTER_S) if marks else t1
+    start = end - DECK_PLOT_BEFORE_S
+    if rec["t_contact"] is not None and rec["t_contact"] - DECK_PLOT_AFTER_S < start:
+        start = rec["t_contact"] - DECK_PLOT_AFTER_S
+    return max(t0, start), end
+
+
+def deck_time_plot(tr, rec):
+    """The deck's top and the vehicle's gear over the end of a run: a figure, or (None, why)."""
+    if not all(c in tr and len(tr[c]) > 0 for c in ("t_s", "z_WB_m", "z_WP_m")):
+        return None, "trace.csv has no usable rows or lacks the columns t_s, z_WB_m, z_WP_m"
+    t = tr["t_s"]
+    if not np.isfinite(t).any():
+        return None, "trace.csv has no finite times"
+    start, end = deck_plot_span(t, rec)
+    sel = np.flatnonzero((t >= start) & (t <= end))
+    if len(sel) == 0:
+        return None, "trace.csv has no rows between %.1f and %.1f s" % (start, end)
+    idx = sel[downsample_index(len(sel))]
+    tt, zp, zg = t[idx], tr["z_WP_m"][idx], tr["z_WB_m"][idx] - GEAR_HEIGHT_M
+    modes = tr["mode"][idx] if "mode" in tr and len(tr["mode"]) == len(t) else None
+    fig, ax = plt.subplots(figsize=(10, 4.2))
+    shaded = False
+    for a, b in rec["windows"]:
+        if b >= start and a <= end:
+            ax.axvspan(max(a, start), min(b, end), color="#2ca02c", alpha=0.18, lw=0, zorder=0,
+                       label=None if shaded else DECK_LABELS[0])
+            shaded = True
+    ok = np.isfinite(tt) & np.isfinite(zp)
+    ax.plot(tt[ok], zp[ok], color="0.45", lw=2.4, label=DECK_LABELS[1], zorder=1)
+    ok = np.isfinite(tt) & np.isfinite(zg)
+    plot_by_mode(ax, tt[ok], zg[ok], None if modes is None else modes[ok], set())
+    cuts = [c for c in rec["cuts"] if start <= c <= end]
+    for i, c in enumerate(cuts):
+        ax.axvline(c, color="#d62728", lw=1.3, ls="--", label=None if i else DECK_LABELS[2])
+    if rec["t_contact"] is not None:
+        ax.axvline(rec["t_contact"], color="k", lw=1.1, ls=":", label=DECK_LABELS[3])
+    ax.set_xlim(start, end)
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("z_W (m)")
+    ax.grid(True, lw=0.3, alpha=0.5)
+    handles, labels = ax.get_legend_handles_labels()
+    legends = []
+    for pick, where, title in ((lambda lab: lab not in DECK_LABELS, 1.0,
+                                "vehicle z_WB - %.2f m, by mode" % GEAR_HEIGHT_M),
+                               (lambda lab: lab in DECK_LABELS, 0.0, None)):
+        hl = [(h, lab) for h, lab in zip(handles, labels) if pick(lab)]
+        if hl:
+            legends.append(ax.legend([h for h, _ in hl], [lab for _, lab in hl], fontsize=8, frameon=False,
+                                     loc="upper left" if where else "lower left", bbox_to_anchor=(1.01, where),
+                                     title=title, title_fontsize=8, alignment="left"))
+    for leg in legends[:-1]:
+        ax.add_artist(leg)
+    ax.set_title(mpl_text("%s (%s): rel. vertical speed %s m/s, deck vertical speed %s m/s, deck tilt %s deg, "
+                          "contact in %s" % (rec["id"], rec["outcome"] or "?", plain(rec["rel_vz"], "%+.2f"),
+                                             plain(rec["deck_vz"], "%+.2f"), plain(rec["deck_tilt"], "%.1f"),
+                                             rec["mode"] or "?"), 160), fontsize=9)
+    return fig, None
+
+
+def section_deck_runs(d, recs):
+    out = ["<h3>The deck's motion and the chosen touchdown instant</h3>",
+           '<p class="note">The last %.0f s before the first contact (or the run\'s end), widened to show '
+           "the deck_cut: the deck's top, the vehicle's height less the gear height %.2f m (coloured by "
+           "flight mode), the deck windows the flight software committed to (shaded), each deck_cut "
+           "(dashed) and the first contact (dotted). The deck's height is its top's at the centre: on a tilted "
+           "deck a skid's end meets it a few cm off that line.</p>" % (DECK_PLOT_BEFORE_S, GEAR_HEIGHT_M)]
+    for rec, why in pick_deck_runs(recs):
+        run_id = rec["id"]
+        out.append('<div class="run"><h4><code>%s</code> &mdash; %s, %s: %s</h4>'
+                   % (esc(run_id), esc(rec["scenario"]), esc(rec["outcome"]), esc(why)))
+        run_dir = safe_run_dir(d, run_id)
+        trace_path = os.path.join(run_dir, "trace.csv") if run_dir else None
+        tr = read_trace(trace_path) if trace_path and os.path.isfile(trace_path) else None
+        if tr is None:
+            out.append('<p class="warn">no readable trace.csv: not plotted</p>')
+        else:
+            fig, why_not = deck_time_plot(tr, rec)
+            out.append(placeholder(why_not) if fig is None
+                       else fig_to_img(fig, "deck:" + run_id, "deck motion and touchdown of run " + run_id))
+        out.append("</div>")
+    return "\n".join(out)
+
+
+def section_deck(d, rows, names, colours):
+    """The moving-deck section, or None when no run's touchdown has the deck figures."""
+    recs, skipped = collect_deck_runs(d, rows)
+    if not recs:
+        return None
+    out = ['<h2 id="deck">Moving deck</h2>',
+           '<p class="note">Runs whose first contact has the deck figures (summary.json touchdown). '
+           "Relative vertical speed: vehicle minus deck at the first contact (negative: closing); the "
+           "criterion is |rel. vertical speed| &le; %.1f m/s. Contacts before the cut: the skids met the "
+           "deck before the flight software cut the motors (mode at contact: recovery).</p>"
+           % DECK_REL_VZ_LIMIT_MPS,
+           deck_table(recs, names)]
+    if skipped:
+        shown = ", ".join("<code>%s</code> (%s)" % (esc(i), esc(w)) for i, w in skipped[:MAX_LISTED_MISSING])
+        more = " &hellip;" if len(skipped) > MAX_LISTED_MISSING else ""
+        out.append('<p class="warn">%d run(s) skipped, no readable summary.json: %s%s</p>'
+                   % (len(skipped), shown, more))
+    out.append(deck_scatter(recs, names, colours))
+    out.append(section_deck_runs(d, recs))
     return "\n".join(out)
 
 
@@ -782,6 +1083,7 @@ def build_page(d, doc, rows):
     names = scenario_order(doc, rows)
     colours = scenario_colours(names)
     title = "Campaign report: %s" % (doc.get("name") if doc.get("name") is not None else "(unnamed)")
+    deck = section_deck(d, rows, names, colours)  # None unless a run has the deck figures
     parts = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
@@ -790,11 +1092,13 @@ def build_page(d, doc, rows):
         "<style>%s</style></head><body>" % CSS,
         section_header(doc, d),
         '<nav><a href="#stats">statistics</a><a href="#touchdown">touchdown points</a>'
+        + ('<a href="#deck">moving deck</a>' if deck is not None else "") +
         '<a href="#ecdf">offset CDF</a><a href="#rate">landing rate</a><a href="#time">time to land</a>'
         '<a href="#sensitivity">sensitivity</a><a href="#worst">worst runs</a>'
         '<a href="#failed">failed runs</a></nav>',
         section_stats(doc, names),
         section_touchdown(rows, names, colours, limit),
+    ] + ([deck] if deck is not None else []) + [
         section_ecdf(rows, names, colours, limit),
         section_rate(doc, names, colours),
         section_time_to_land(rows, names, colours),

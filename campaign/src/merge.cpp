@@ -35,6 +35,11 @@ struct Row {
   double xt_mean{NAN}, xt_p95{NAN}, xt_max_cap{NAN}, cover_t{NAN}, target_share{NAN};
   // Who flew (run.json's flight_software; empty where the run wrote none).
   std::string fs_name, fs_version, fs_sha256;
+  // A moving deck (summary.json touchdown's deck figures at first contact, and the chosen
+  // touchdown instant: the last deck_cut event; NaN where there is none).
+  bool has_deck{false};
+  double rel_vz{NAN}, deck_tilt{NAN}, deck_heave{NAN}, deck_vz{NAN}, contact_t{NAN}, deck_cut_t{NAN};
+  std::string contact_mode;
 };
 
 // "name version" of a run's flight software, "" when unknown.
@@ -47,10 +52,34 @@ const std::vector<std::string> kPathColumns = {"path_covered", "path_time_to_cov
                                                "path_cross_track_mean_m", "path_cross_track_p95_m",
                                                "path_cross_track_max_after_capture_m",
                                                "path_target_share"};
+// Moving-deck campaigns' columns (after the path-following ones).
+const std::vector<std::string> kDeckColumns = {"touchdown_rel_vertical_speed_mps", "touchdown_deck_tilt_deg",
+                                               "touchdown_deck_heave_m", "touchdown_deck_vz_mps", "contact_t_s",
+                                               "contact_mode", "deck_cut_t_s"};
 
 double num(const json& j, const char* key) {
   if (!j.is_object() || !j.contains(key) || !j[key].is_number()) return NAN;
   return j[key].get<double>();
+}
+
+// The deck figures of summary.json (its touchdown block with deck_tilt_deg, the deck_cut
+// events of landing_decision) into r.
+void read_deck_figures(const json& s, Row* r) {
+  if (!s.contains("touchdown") || !s["touchdown"].is_object() || !s["touchdown"].contains("deck_tilt_deg")) return;
+  const json& td = s["touchdown"];
+  r->has_deck = true;
+  r->rel_vz = num(td, "rel_vertical_speed_mps");
+  r->deck_tilt = num(td, "deck_tilt_deg");
+  r->deck_heave = num(td, "deck_heave_m");
+  r->deck_vz = num(td, "deck_vz_mps");
+  r->contact_t = num(td, "t_s");
+  if (td.contains("mode_at_contact") && td["mode_at_contact"].is_string()) r->contact_mode = td["mode_at_contact"];
+  if (s.contains("landing_decision") && s["landing_decision"].is_object() &&
+      s["landing_decision"].contains("events") && s["landing_decision"]["events"].is_array()) {
+    for (const json& e : s["landing_decision"]["events"]) {
+      if (e.is_object() && e.value("what", "") == "deck_cut") r->deck_cut_t = num(e, "t_s");
+    }
+  }
 }
 
 json stat_block(const std::vector<double>& x, bool with_p95_ci) {
@@ -299,6 +328,7 @@ std::vector<Row> read_rows(const std::string& dir, const json& plan, MergeResult
           r.x_P = s["touchdown"]["offset_P_m"][0].get<double>();
           r.y_P = s["touchdown"]["offset_P_m"][1].get<double>();
         }
+        read_deck_figures(s, &r);
         if (s.contains("path_following") && s["path_following"].is_object()) {
           const json& pf = s["path_following"];
           r.has_path = true;
@@ -338,6 +368,9 @@ void write_campaign_csv(const std::string& dir, const std::vector<std::string>& 
   // Who flew each run, then (campaigns with a route) the path-following columns.
   for (const char* c : {"flight_software", "flight_software_version", "flight_plugin_sha256"}) header.push_back(c);
   if (any_path) header.insert(header.end(), kPathColumns.begin(), kPathColumns.end());
+  // Moving-deck campaigns get the deck's figures at the end (others keep their columns).
+  const bool any_deck = std::any_of(rows.begin(), rows.end(), [](const Row& r) { return r.has_deck; });
+  if (any_deck) header.insert(header.end(), kDeckColumns.begin(), kDeckColumns.end());
   sim::CsvWriter csv(dir + "/campaign.csv", header);
   for (const Row& r : rows) {
     csv.text(r.id).text(r.scenario).text(std::to_string(r.seed)).text(r.outcome).integer(r.landed ? 1 : 0)
@@ -349,6 +382,10 @@ void write_campaign_csv(const std::string& dir, const std::vector<std::string>& 
     if (any_path) {
       csv.text(r.has_path ? (r.path_covered ? "1" : "0") : "").text(cell(r.cover_t)).text(cell(r.xt_mean))
           .text(cell(r.xt_p95)).text(cell(r.xt_max_cap)).text(cell(r.target_share));
+    }
+    if (any_deck) {
+      csv.text(cell(r.rel_vz)).text(cell(r.deck_tilt)).text(cell(r.deck_heave)).text(cell(r.deck_vz))
+          .text(cell(r.contact_t)).text(r.contact_mode).text(cell(r.deck_cut_t));
     }
     csv.end_row();
   }

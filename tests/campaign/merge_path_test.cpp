@@ -99,4 +99,54 @@ TEST(MergePath, CampaignsWithoutARouteKeepTheirColumns) {
   EXPECT_EQ(csv.header.back(), "flight_plugin_sha256");
 }
 
+// A moving deck's campaign (issue 56): the deck's figures at first contact and the chosen
+// touchdown instant (the last deck_cut) become columns; a run without deck figures leaves
+// them empty, never 0.
+TEST(MergeDeck, DeckCampaignsGetTheDeckColumns) {
+  const std::string dir = lander::test::temp_dir("merge_deck");
+  fake_plan(dir, {"s-0000", "s-0001"});
+  fake_run(dir, "s-0000", "landed", nullptr);
+  fake_run(dir, "s-0001", "timeout", nullptr);
+  const std::string summary = dir + "/runs/s-0000/summary.json";
+  json s = json::parse(lander::test::read_text(summary));
+  s["touchdown"] = {{"t_s", 20.25},           {"rel_vertical_speed_mps", -0.31}, {"deck_tilt_deg", 2.5},
+                    {"deck_heave_m", -0.12},  {"deck_vz_mps", 0.04},             {"mode_at_contact", "touchdown"}};
+  s["landing_decision"] = {{"events", json::array({{{"t_s", 19.5}, {"what", "deck_window"}},
+                                                   {{"t_s", 19.9}, {"what", "deck_cut"}},
+                                                   {{"t_s", 20.1}, {"what", "deck_cut"}}})}};
+  write(summary, s);
+  lander::campaign::MergeOptions o;
+  o.html = false;
+  lander::campaign::merge_campaign(dir, o);
+  const auto csv = lander::test::read_csv(dir + "/campaign.csv");
+  ASSERT_EQ(csv.rows.size(), 2u);
+  EXPECT_EQ(csv.header.back(), "deck_cut_t_s");
+  const std::size_t c_rel = col(csv, "touchdown_rel_vertical_speed_mps"), c_tilt = col(csv, "touchdown_deck_tilt_deg"),
+                    c_t = col(csv, "contact_t_s"), c_mode = col(csv, "contact_mode"), c_cut = col(csv, "deck_cut_t_s");
+  for (const auto& row : csv.rows) {
+    if (row.at(0) == "s-0000") {
+      EXPECT_DOUBLE_EQ(std::stod(row.at(c_rel)), -0.31);
+      EXPECT_DOUBLE_EQ(std::stod(row.at(c_tilt)), 2.5);
+      EXPECT_DOUBLE_EQ(std::stod(row.at(c_t)), 20.25);
+      EXPECT_EQ(row.at(c_mode), "touchdown");
+      EXPECT_DOUBLE_EQ(std::stod(row.at(c_cut)), 20.1);  // the last cut
+    } else {
+      EXPECT_EQ(row.at(c_rel), "");
+      EXPECT_EQ(row.at(c_cut), "");
+    }
+  }
+}
+
+TEST(MergeDeck, CampaignsWithoutADeckHaveNoDeckColumns) {
+  const std::string dir = lander::test::temp_dir("merge_nodeck");
+  fake_plan(dir, {"s-0000"});
+  fake_run(dir, "s-0000", "landed", nullptr);
+  lander::campaign::MergeOptions o;
+  o.html = false;
+  lander::campaign::merge_campaign(dir, o);
+  const auto csv = lander::test::read_csv(dir + "/campaign.csv");
+  EXPECT_EQ(std::count(csv.header.begin(), csv.header.end(), "touchdown_deck_tilt_deg"), 0);
+  EXPECT_EQ(csv.header.back(), "flight_plugin_sha256");
+}
+
 }  // namespace

@@ -666,6 +666,227 @@ def htmlunescape(s):
 
 
 # ---------------------------------------------------------------------------------------------
+# a moving-deck campaign: summary.json with the deck's figures at the first contact, traces of a
+# heaving deck
+
+DECK_PLAN = {
+    "deck_calm": ["landed", "landed", "landed", "timeout", "landed", "landed"],
+    "deck_rough": ["landed", "landed", "tipped_over", "landed", "timeout"],
+    "static": ["landed", "landed", "timeout"],            # no deck: its touchdowns have no deck figures
+}
+DECK_NO_TRACE = "deck_rough-0001"       # the largest |rel. vertical speed|, and no trace.csv
+DECK_NO_SUMMARY = "deck_calm-0005"      # no summary.json at all
+DECK_BAD_SUMMARY = "deck_rough-0004"    # summary.json that is not JSON
+DECK_NO_CUT = "deck_calm-0002"          # landed without a deck_cut event
+DECK_FALLBACK_WINDOW = "deck_calm-0001"  # a deck_window whose reason has no "a-b s"
+GEAR_HEIGHT_M = 0.25
+
+
+def deck_z(t):
+    return 1.0 + 0.3 * math.sin(2 * math.pi * t / 7.0)
+
+
+def deck_trace_rows(t_contact, t_end, dt=0.02):
+    """The deck heaving, the vehicle's gear coming down onto it at t_contact and then riding it."""
+    rows = []
+    for k in range(int(t_end / dt) + 1):
+        t = k * dt
+        zp = deck_z(t)
+        zb = GEAR_HEIGHT_M + zp + 0.3 * max(0.0, t_contact - t)
+        mode = "approach" if t < t_contact - 4 else ("recovery" if t < t_contact else "landed")
+        r = {c: "0.0000" for c in TRACE_HEADER}
+        r.update({"t_s": "%.3f" % t, "mode": mode, "z_WB_m": "%.5f" % zb, "z_WP_m": "%.5f" % zp,
+                  "vz_W_mps": "%.5f" % (-0.3 if t < t_contact else 0.0)})
+        rows.append(r)
+    return rows
+
+
+def deck_summary(run, rng, i):
+    """A summary.json for a deck run: touchdown with the deck figures and landing_decision events."""
+    tc = float(rng.uniform(14.0, 24.0))
+    rel = -1.3 if run["id"] == DECK_NO_TRACE else -float(rng.uniform(0.05, 0.95))
+    events = [{"t_s": 3.0, "attempt": 1, "what": "attempt_started", "reason": "80 keyframes observed (>= 80)"}]
+    for w0 in (tc - 6.0, tc - 1.0):
+        reason = ("deck quiescent %.2f-%.2f s by its prediction (vertical speed 0.10 m/s, tilt 2.0 deg)"
+                  % (w0, w0 + 0.8))
+        if run["id"] == DECK_FALLBACK_WINDOW and w0 < tc - 2:
+            reason = "deck quiescent by its prediction"
+        events.append({"t_s": w0, "attempt": 1, "what": "deck_window", "reason": reason})
+    if run["landed"] and run["id"] != DECK_NO_CUT:
+        events.append({"t_s": tc - 0.1, "attempt": 1, "what": "deck_cut", "reason": events[-1]["reason"]})
+        events.append({"t_s": tc - 0.1, "attempt": 1, "what": "cut", "reason": "cut: " + events[-2]["reason"]})
+    return {"scenario": run["scenario"], "landed": run["landed"], "outcome": run["outcome"],
+            "touchdown": {"surface": "platform", "t_s": tc, "offset_m": 0.02, "rel_speed_mps": abs(rel),
+                          "rel_vertical_speed_mps": rel, "tilt_deg": 1.0,
+                          "mode_at_contact": "approach" if i == 4 else ("recovery" if i % 3 else "touchdown"),
+                          "deck_tilt_deg": float(rng.uniform(0.5, 9.0)),
+                          "deck_heave_m": float(rng.uniform(-0.5, 0.5)),
+                          "deck_vz_mps": float(rng.uniform(-0.6, 0.6))},
+            "landing_decision": {"attempts": 1, "events": events}}
+
+
+def write_summaries(d, runs, deck_scenarios):
+    """summary.json (and, for deck runs, trace.csv) for every run; deck runs per deck_scenarios."""
+    rng = np.random.default_rng(11)
+    for i, r in enumerate(runs):
+        rd = os.path.join(d, "runs", r["id"])
+        if r["scenario"] in deck_scenarios:
+            summ = deck_summary(r, rng, i)
+            if r["id"] != DECK_NO_TRACE:
+                tc = summ["touchdown"]["t_s"]
+                write_trace(os.path.join(rd, "trace.csv"), deck_trace_rows(tc, tc + (3.0 if r["landed"] else 8.0)))
+            elif os.path.exists(os.path.join(rd, "trace.csv")):
+                os.unlink(os.path.join(rd, "trace.csv"))
+        else:  # a static platform: no deck figures; a run without contact has an empty touchdown
+            td = {"surface": "platform", "t_s": 20.0, "offset_m": 0.03, "rel_vertical_speed_mps": -0.3,
+                  "mode_at_contact": "touchdown"} if r["landed"] else None
+            summ = {"landed": r["landed"], "outcome": r["outcome"], "touchdown": td,
+                    "landing_decision": {"events": []}}
+        if r["id"] == DECK_NO_SUMMARY:
+            continue
+        with open(os.path.join(rd, "summary.json"), "w", encoding="utf-8") as f:
+            if r["id"] == DECK_BAD_SUMMARY:
+                f.write('{"touchdown": {"deck_tilt_deg": 3.0, ')
+            else:
+                json.dump(summ, f)
+
+
+def expected_deck(d, runs):
+    """What the deck section should show, from the summary.json files as written: per scenario
+    the deck records, and the runs to plot with the reason each is shown."""
+    recs = []
+    for r in runs:
+        try:
+            with open(os.path.join(d, "runs", r["id"], "summary.json"), encoding="utf-8") as f:
+                summ = json.load(f)
+        except (OSError, ValueError):
+            continue
+        td = summ.get("touchdown")
+        if isinstance(td, dict) and "deck_tilt_deg" in td:
+            events = summ["landing_decision"]["events"]
+            recs.append({"id": r["id"], "scenario": r["scenario"], "landed": r["landed"],
+                         "rel": abs(td["rel_vertical_speed_mps"]), "tilt": td["deck_tilt_deg"],
+                         "mode": td["mode_at_contact"], "cut": any(e["what"] == "deck_cut" for e in events)})
+    ranked = sorted(recs, key=lambda x: (x["rel"], x["id"]))
+    picks = [ranked[-1]["id"], ranked[(len(ranked) - 1) // 2]["id"]]
+    if all(x["landed"] for x in recs if x["id"] in picks):
+        picks.append(max((x for x in recs if not x["landed"]), key=lambda x: x["rel"])["id"])
+    return recs, picks
+
+
+def deck_row_cells(recs):
+    """The table cells after the scenario name, as the report writes them."""
+    speeds = [x["rel"] for x in recs]
+    soft = sum(1 for v in speeds if v <= 0.5)
+    return [str(len(recs)), str(sum(x["landed"] for x in recs)),
+            "%d / %d (%.1f%%)" % (soft, len(speeds), 100.0 * soft / len(speeds)),
+            "%.2f" % float(np.median(speeds)), "%.2f" % max(speeds), "%.1f" % max(x["tilt"] for x in recs),
+            str(sum(x["mode"] == "recovery" for x in recs)), str(sum(x["cut"] for x in recs))]
+
+
+def section_html(raw, h2_id):
+    i = raw.find('<h2 id="%s">' % h2_id)
+    if i < 0:
+        raise AssertionError("no section %s" % h2_id)
+    j = raw.find("<h2", i + 1)
+    return raw[i:j if j >= 0 else len(raw)]
+
+
+def table_rows(fragment):
+    """{row header: [cell texts]} of the <tbody> rows in an HTML fragment."""
+    out = {}
+    for m in re.finditer(r"<tr[^>]*><th>(.*?)</th>(.*?)</tr>", fragment, re.S):
+        cells = [htmlunescape(re.sub(r"<[^>]*>", "", c))
+                 for c in re.findall(r"<td[^>]*>(.*?)</td>", m.group(2), re.S)]
+        if cells:
+            out[htmlunescape(m.group(1))] = cells
+    return out
+
+
+def count_colour(img, rgb, tol=0.04):
+    return int(np.sum(np.all(np.abs(flatten_rgb(img) - np.array(rgb)) < tol, axis=-1)))
+
+
+class DeckCampaign(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.mkdtemp(prefix="campaign_report_deck-")
+        cls.dir = os.path.join(cls.tmp, "deck")
+        cls.runs = make_campaign(cls.dir, DECK_PLAN, name="deck")
+        write_summaries(cls.dir, cls.runs, ("deck_calm", "deck_rough"))
+        cls.proc = run_report(cls.dir)
+        cls.report = os.path.join(cls.dir, "report.html")
+        keep("deck", cls.dir)
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.tmp, ignore_errors=True)
+
+    def setUp(self):
+        self.assertEqual(self.proc.returncode, 0, "campaign_report.py failed:\n" +
+                         self.proc.stderr.decode(errors="replace"))
+        self.raw, self.page = parse(self.report)
+        self.section = section_html(self.raw, "deck")
+
+    def test_section_placed_after_touchdown(self):
+        ids = re.findall(r'<h2 id="([^"]+)">', self.raw)
+        self.assertEqual(ids, ["stats", "touchdown", "deck", "ecdf", "rate", "time", "sensitivity", "worst",
+                               "failed"])
+        self.assertIn('<a href="#deck">', self.raw)
+
+    def test_table_counts(self):
+        recs, _ = expected_deck(self.dir, self.runs)
+        rows = table_rows(self.section)
+        per = {}
+        for x in recs:
+            per.setdefault(x["scenario"], []).append(x)
+        self.assertEqual(sorted(per), ["deck_calm", "deck_rough"])  # the fixture has what it should
+        self.assertEqual(set(rows), set(per) | {"all deck runs"})    # no row for the static platform
+        for s, xs in per.items():
+            self.assertEqual(rows[s], deck_row_cells(xs), s)
+        self.assertEqual(rows["all deck runs"], deck_row_cells(recs))
+
+    def test_skipped_summaries_are_noted(self):
+        text = htmlunescape(re.sub(r"<[^>]*>", "", self.section))
+        self.assertIn("2 run(s) skipped, no readable summary.json", text)
+        self.assertIn(DECK_NO_SUMMARY + " (no summary.json)", text)
+        self.assertIn(DECK_BAD_SUMMARY + " (summary.json not valid JSON", text)
+
+    def test_plots(self):
+        _, picks = expected_deck(self.dir, self.runs)
+        self.assertEqual(picks[0], DECK_NO_TRACE)
+        self.assertEqual(len(picks), 3)
+        names = [a.get("data-plot") for a in self.page.imgs()]
+        deck_names = ["deck_scatter"] + ["deck:" + p for p in picks if p != DECK_NO_TRACE]
+        i = names.index("touchdown") + 1
+        self.assertEqual(names[i:i + len(deck_names)], deck_names)
+        self.assertEqual(names[i + len(deck_names)], "ecdf")
+        for a in self.page.imgs():
+            if a.get("data-plot") in deck_names:
+                data = decode_data_uri(a.get("src"))
+                w, h = png_size(data)
+                self.assertEqual((a.get("width"), a.get("height")), (str(w), str(h)))
+                img = mpimg.imread(io.BytesIO(data), format="png")
+                self.assertGreater(non_white_fraction(img), 0.01, a.get("data-plot"))
+        # the scatter in the scenarios' colours (tab10 in campaign.json's order), none for the static one
+        scatter = next(a for a in self.page.imgs() if a.get("data-plot") == "deck_scatter")
+        img = mpimg.imread(io.BytesIO(decode_data_uri(scatter.get("src"))), format="png")
+        tab10 = matplotlib.colormaps["tab10"].colors
+        for k, s in enumerate(DECK_PLAN):
+            found = count_colour(img, tab10[k])
+            if s == "static":
+                self.assertLess(found, 5, s)
+            else:
+                self.assertGreater(found, 20, s)
+
+    def test_missing_trace_is_noted(self):
+        m = re.search(r"<h4><code>%s</code>(.*?)</div>" % re.escape(DECK_NO_TRACE), self.section, re.S)
+        self.assertIsNotNone(m)
+        self.assertIn("no readable trace.csv", m.group(1))
+        self.assertNotIn("<img", m.group(1))
+
+
+# ---------------------------------------------------------------------------------------------
 # edge cases
 
 class EdgeCases(unittest.TestCase):
@@ -757,6 +978,18 @@ class EdgeCases(unittest.TestCase):
         proc = run_report(d)
         self.assertEqual(proc.returncode, 2)
         self.assertIn(os.path.join(d, "campaign.csv"), proc.stderr.decode())
+
+    def test_no_deck_section_without_deck_figures(self):
+        """summary.json files without the deck figures leave the page exactly as without them."""
+        d = os.path.join(self.tmp, "static")
+        runs = make_campaign(d, {"default": ["landed", "timeout", "landed"], "static_platform": ["landed"]})
+        raw, p, text = self.assertValidPage(d, 5)
+        write_summaries(d, runs, ())
+        raw2, p2, text2 = self.assertValidPage(d, 5)
+        self.assertEqual(raw2, raw)
+        self.assertNotIn('id="deck"', raw)
+        self.assertNotIn("#deck", raw)
+        self.assertFalse(any((a.get("data-plot") or "").startswith("deck") for a in p.imgs()))
 
     def test_minimal_json(self):
         """Only the name: nulls and missing keys everywhere still give a page."""

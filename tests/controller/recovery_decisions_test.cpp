@@ -126,6 +126,46 @@ TEST(Descent, WaitsLowUntilAlignedThenGoesOnToTheHoverGap) {
   EXPECT_NEAR(d.clearance_sp_m, L.final_hover_gap_m, kExact);
 }
 
+// A moving deck (issue 56): the clearance setpoint never runs below the deck's wait gap
+// while the deck is not quiescent, above the final hold height too (a setpoint 0.5 m below
+// the vehicle pulled it into a rising deck); in a committed period the dash goes on within
+// the cut's gate, beyond the final descent's.
+TEST(Descent, OverAMovingDeckTheSetpointStopsAtTheWaitGapAtAnyHeight) {
+  const LandingParams L;
+  const double wait = 0.5, high = L.final_hold_height_m + 0.4;
+  ASSERT_GT(wait, L.final_hold_height_m);  // a wait above the final hold height (unpredicted deck)
+  DescentInputs in = descent_at(L, high, 0.5 * L.final_descent_error_m);
+  in.deck_quiescent = false;
+  in.wait_gap_m = wait;
+  in.final_rate_mps = 0.3;
+  DescentStep d = descend(high - 0.5, in, L);  // a setpoint left 0.5 m below the vehicle
+  EXPECT_NEAR(d.clearance_sp_m, wait, kExact);
+  EXPECT_EQ(d.vz_ff_mps, 0.0);
+  // Without the deck the same step runs on towards the hover gap.
+  in.wait_gap_m.reset();
+  d = descend(high - 0.5, in, L);
+  EXPECT_LT(d.clearance_sp_m, wait);
+}
+
+TEST(Descent, ACommittedDeckPeriodDashesOnWithinTheCutsGate) {
+  const LandingParams L;
+  const double h = 0.2;
+  // An error between the final descent's gate and the cut's.
+  const double err = 0.5 * (L.final_descent_error_m + L.touchdown_error_m);
+  ASSERT_GT(err, L.final_descent_error_m);
+  DescentInputs in = descent_at(L, h, err);
+  in.wait_gap_m = 0.25;
+  in.final_rate_mps = 0.3;
+  in.deck_quiescent = true;
+  in.deck_committed = true;
+  DescentStep d = descend(h, in, L);
+  EXPECT_NEAR(d.clearance_sp_m, h - 0.3 * in.dt_s, kExact);  // on down at the deck's rate
+  EXPECT_NEAR(d.vz_ff_mps, -0.3, kExact);
+  in.deck_committed = false;  // the cart's rule: 3 cm, so it waits at the gap
+  d = descend(h, in, L);
+  EXPECT_NEAR(d.clearance_sp_m, 0.25, kExact);
+}
+
 TEST(Descent, ALargeErrorClimbsBackToTheFinalHoldHeight) {
   const LandingParams L;
   const double low = L.final_wait_gap_m;

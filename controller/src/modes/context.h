@@ -111,10 +111,12 @@ class LandingContext {
   // The deck moves and its touchdown is timed (controller.deck.enabled and the predictor's
   // moving()).
   bool deck_moving() const;
+  // A moving deck's height change since the last fix less the tracker's straight line (m).
+  double deck_height_since_fix(double t_s) const;
   // Whether the deck is, by its prediction, quiescent (vertical speed and tilt within their
   // limits) from t_s for deck.window_s; false while the prediction is not trusted. `why`
   // says why not, or the window when it is.
-  bool deck_quiescent(double t_s, std::string* why, QuiescentWindow* window = nullptr) const;
+  bool deck_quiescent(double t_s, double lead_s, std::string* why, QuiescentWindow* window = nullptr) const;
 
   // --- records for summary.json --------------------------------------------------------
   LandingDecisionLog decisions;

@@ -140,6 +140,12 @@ class RecoveryMode final : public LandingMode {
   int wide_departures_{0};  // times the error left the wide gate after the commit
   double wide_left_t_s_{std::numeric_limits<double>::quiet_NaN()};  // outside since (s)
   bool deck_window(LandingContext& c, const Tick& k, std::string* why);
+  struct DeckFeedForward {
+    bool valid{false};
+    double vz_mps{0.0};   ///< the deck's predicted vertical speed (m/s)
+    double az_mps2{0.0};  ///< its predicted vertical acceleration (m/s^2)
+  };
+  DeckFeedForward deck_feed_forward(const LandingContext& c, double t_s) const;
   bool deck_moving_{false};  // this step: the deck moves and the touchdown is timed on it
   double deck_window_end_s_{-std::numeric_limits<double>::infinity()};  // committed period's end
   std::string deck_window_why_;

@@ -210,9 +210,9 @@ std::optional<Transition> RecoveryMode::cut_check(LandingContext& c, const Tick&
   return cut;
 }
 
-// A moving deck's quiescent period: the first step that finds one (LandingContext::
-// deck_quiescent) commits the last centimetres to it, and the period holds until the end
-// predicted then (at most deck.window_s), whatever later fits say: a dash begun is not
+// A moving deck's quiescent period: the first step that finds one the descent begun now
+// meets (LandingContext::deck_quiescent) commits the last centimetres to it, and the commit
+// holds until the end predicted then, whatever later fits say: a dash begun is not
 // stopped half-way by a refit. `why` gives the period.
 bool RecoveryMode::deck_window(LandingContext& c, const Tick& k, std::string* why) {
   if (k.t_s <= deck_window_end_s_) {
@@ -220,11 +220,24 @@ bool RecoveryMode::deck_window(LandingContext& c, const Tick& k, std::string* wh
     return true;
   }
   QuiescentWindow w;
-  if (!c.deck_quiescent(k.t_s, why, &w)) return false;
-  deck_window_end_s_ = std::min(w.end_s, k.t_s + c.p.deck.window_s);
+  const double lead_s = std::max(0.0, c.diag.gear_clearance_m) / c.p.deck.descent_rate_mps;
+  if (!c.deck_quiescent(k.t_s, lead_s, why, &w)) return false;
+  deck_window_end_s_ = std::min(w.end_s, k.t_s + lead_s + c.p.deck.window_s);
   deck_window_why_ = *why;
   c.log_event(k.t_s, "deck_window", *why);
   return true;
+}
+
+// The deck's predicted vertical speed and acceleration at t_s (the latter a central
+// difference of the prediction's rate over kDeckAccelStep_s); not valid unless the deck moves
+// and its prediction is trusted.
+RecoveryMode::DeckFeedForward RecoveryMode::deck_feed_forward(const LandingContext& c, double t_s) const {
+  constexpr double kDeckAccelStep_s = 0.05;
+  if (!deck_moving_ || !c.deck.ready()) return {};
+  const double vz = c.deck.predict(t_s).vz_mps;
+  const double az = (c.deck.predict(t_s + kDeckAccelStep_s).vz_mps - c.deck.predict(t_s - kDeckAccelStep_s).vz_mps) /
+                    (2.0 * kDeckAccelStep_s);
+  return {true, vz, az};
 }
 
 // Visual servo: horizontal setpoint on the platform now, its velocity fed forward; descend at
@@ -236,8 +249,9 @@ Setpoint RecoveryMode::servo(LandingContext& c, const Tick& k, double rel_speed,
   DescentInputs in{fresh, wide_committed_, e_xy, rel_speed, h, L.wide_gate_m(), dt, deck_quiescent_, std::nullopt,
                    std::nullopt};
   if (deck_moving_) {
-    in.wait_gap_m = c.p.deck.wait_gap_m;
+    in.wait_gap_m = c.deck.ready() ? c.p.deck.wait_gap_m : std::max(c.p.deck.wait_gap_m, c.p.deck.unpredicted_gap_m);
     in.final_rate_mps = c.p.deck.descent_rate_mps;
+    in.deck_committed = deck_quiescent_;
   }
   const DescentStep d = descend(h_sp_m_, in, L);
   h_sp_m_ = d.clearance_sp_m;
@@ -255,10 +269,17 @@ Setpoint RecoveryMode::servo(LandingContext& c, const Tick& k, double rel_speed,
   // vertical part is low-passed: a cart's top does not move vertically, what is left is
   // that slowly changing navigation error, and the filter's noise would reach the thrust.
   platform_vz_lp_ += (c.diag.platform_v_W_mps.z() - platform_vz_lp_) * std::min(1.0, dt / kPlatformVzFilter_s);
-  // A moving deck's heave is no slow navigation error: its predicted vertical speed now (the
-  // fixes' latency made up by the prediction) is fed forward instead.
-  const double platform_vz = deck_moving_ && c.deck.ready() ? c.deck.predict(k.t_s).vz_mps : platform_vz_lp_;
+  // A moving deck's heave is no slow navigation error: its predicted vertical speed and
+  // acceleration now (the fixes' latency made up by the prediction) are fed forward instead.
+  const DeckFeedForward deck_ff = deck_feed_forward(c, k.t_s);
+  // A deck moving without a prediction yet: the tracker's vertical velocity unfiltered (the
+  // filter's 0.5 s lag is a decimetre at the deck's 0.4 m/s) while vision sees it, none
+  // without (a heave's velocity carried on is soon wrong).
+  const double platform_vz = deck_ff.valid  ? deck_ff.vz_mps
+                             : deck_moving_ ? (fresh ? c.diag.platform_v_W_mps.z() : 0.0)
+                                            : platform_vz_lp_;
   sp.v_W_mps = Eigen::Vector3d(c.diag.platform_v_W_mps.x(), c.diag.platform_v_W_mps.y(), platform_vz + d.vz_ff_mps);
+  sp.a_W_mps2.z() = deck_ff.az_mps2;
   // The platform's horizontal acceleration fed forward (platform_accel_ff_gain, on by
   // default): a stop-and-go cart's 0.6 m/s^2 is otherwise met only by the velocity loop,
   // ~0.35 s behind the cart: 10-20 cm of error at every start and stop. Nothing of it below

@@ -56,12 +56,18 @@ DescentStep descend(double h_sp, const DescentInputs& in, const LandingParams& L
                       : near                    ? L.descent_rate_near_mps
                                                 : L.descent_rate_mps;
   // On a moving deck the last centimetres wait for a quiescent period too (issue 56).
-  const bool aligned = in.deck_quiescent &&
-                       (in.committed_wide
-                            ? e_xy < in.wide_gate_m && in.rel_speed_mps < L.max_touchdown_rel_speed_mps
-                            : e_xy < L.final_descent_error_m && in.rel_speed_mps < L.final_descent_rel_speed_mps);
-  const double h_floor =
-      (aligned || h > L.final_hold_height_m) ? L.final_hover_gap_m : in.wait_gap_m.value_or(L.final_wait_gap_m);
+  const bool aligned =
+      in.deck_quiescent &&
+      (in.committed_wide   ? e_xy < in.wide_gate_m && in.rel_speed_mps < L.max_touchdown_rel_speed_mps
+       : in.deck_committed ? e_xy < L.touchdown_error_m && in.rel_speed_mps < L.max_touchdown_rel_speed_mps
+                           : e_xy < L.final_descent_error_m && in.rel_speed_mps < L.final_descent_rel_speed_mps);
+  // Above the final hold height the setpoint runs on towards contact, except over a moving
+  // deck: a setpoint 0.5 m below the vehicle still pulled it down at 0.4 m/s as it crossed
+  // the final hold height, into a deck rising at 0.3 m/s.
+  const bool deck_wait = in.wait_gap_m.has_value();
+  const double h_floor = (aligned || (h > L.final_hold_height_m && !deck_wait))
+                             ? L.final_hover_gap_m
+                             : in.wait_gap_m.value_or(L.final_wait_gap_m);
   if (!in.committed_wide && e_xy > 2.0 * L.touchdown_error_m) h_sp = std::max(h_sp, L.final_hold_height_m);
   double vz_ff = 0.0;
   if (in.fresh && e_xy < gate && h_sp > h_floor) {

@@ -51,11 +51,16 @@ struct DescentInputs {
   double dt_s;
   bool deck_quiescent{true};  ///< a moving deck is quiescent for deck.window_s (true when
                               ///< the deck does not move)
-  /// A moving deck: the wait below final_hold_height_m and the rate of the last centimetres
-  /// (deck.wait_gap_m, deck.descent_rate_mps) instead of final_wait_gap_m and
+  /// A moving deck: the wait (deck.wait_gap_m, at any height: the clearance setpoint never
+  /// runs below it while the deck is not quiescent) and the rate of the last centimetres
+  /// (deck.descent_rate_mps) instead of final_wait_gap_m below final_hold_height_m and
   /// descent_rate_final_mps.
   std::optional<double> wait_gap_m;
   std::optional<double> final_rate_mps;
+  /// A moving deck's committed quiescent period: the dash into it goes on within the cut's
+  /// gate (touchdown_error_m, max_touchdown_rel_speed_mps), not the final descent's 3 cm: the
+  /// deck's roll sways its top by centimetres and a dash stopped half-way misses the period.
+  bool deck_committed{false};
 };
 struct DescentStep {
   double clearance_sp_m;  ///< the gear-clearance setpoint after this step

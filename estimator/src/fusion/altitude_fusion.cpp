@@ -130,8 +130,11 @@ void AltitudeFusion::predict(double t_s, double az_W_mps2) {
   Q(kVz, kVz) = q * dt;
   Q(kBaroBias, kBaroBias) = p_.baro_bias_rw_mps * p_.baro_bias_rw_mps * dt;
   Q(kAccelBias, kAccelBias) = p_.accel_bias_rw_mps3 * p_.accel_bias_rw_mps3 * dt;
-  Q(kSurface, kSurface) = p_.surface_rw_mps * p_.surface_rw_mps * dt;
-  Q(kPlane, kPlane) = p_.platform_rw_mps * p_.platform_rw_mps * dt;
+  const bool moving = p_.moving_surface_rw_mps > 0.0;
+  const double surface_rw = moving ? std::max(p_.surface_rw_mps, p_.moving_surface_rw_mps) : p_.surface_rw_mps;
+  const double plane_rw = moving ? std::max(p_.platform_rw_mps, p_.moving_surface_rw_mps) : p_.platform_rw_mps;
+  Q(kSurface, kSurface) = surface_rw * surface_rw * dt;
+  Q(kPlane, kPlane) = plane_rw * plane_rw * dt;
   Q(kGpsErr, kGpsErr) = p_.gps_std_m * p_.gps_std_m * (1.0 - a_g * a_g);
   P_ = F * P_ * F.transpose() + Q;
   t_s_ = t_s;
@@ -204,8 +207,9 @@ AltitudeFusion::Outcome AltitudeFusion::update_baro(const BaroSample& s) {
   if (!age_ok(s.t_s)) return Outcome::kRejectedStale;
   if (!(s.pressure_pa > 0) || !std::isfinite(s.pressure_pa)) return Outcome::kRejectedRange;
   // Eq. 15 only: near the surface the downwash corrupts the baro (seed 004 sec. 4.2); unless
-  // the ultrasonic that replaces it has been silent for baro_fallback_s.
-  if (low_set_) {
+  // the ultrasonic that replaces it has been silent for baro_fallback_s. Over a moving
+  // surface the ultrasonic does not anchor the height: the barometer stays.
+  if (low_set_ && !(p_.moving_surface_rw_mps > 0.0)) {
     if (!(p_.baro_fallback_s > 0) || t_s_ - us_trusted_t_s_ <= p_.baro_fallback_s) {
       return Outcome::kRejectedSet;
     }

@@ -689,18 +689,28 @@ void visit_fields(V& v, DeckMotionParams& p) {
 // steadiness test, and the clearance servo feeds the predicted vertical speed forward.
 struct DeckTimingParams {
   bool enabled{true};                 ///< time the touchdown on the deck's predicted motion
+  /// The platform is a boat's deck, expected to move: until the predictor is ready and finds
+  /// it still, the last centimetres wait as over a moving deck (without it the first 6-8 s of
+  /// fixes, before the predictor has a fit, were flown as over a cart: straight into contact,
+  /// at up to 1 m/s relative to a rising deck).
+  bool expected{false};
   double max_vz_mps{0.25};            ///< deck vertical speed allowed over the window (m/s)
   double max_tilt_rad{6.0 * M_PI / 180.0};  ///< deck tilt allowed over the window (rad);
                                       ///< YAML max_tilt_deg
-  double window_s{1.0};               ///< the quiescent period must last this long from now:
-                                      ///< wait_gap_m at descent_rate_mps (0.8 s) and the
-                                      ///< cut's fall (s)
+  double window_s{1.0};               ///< the quiescent period must last this long (s): the
+                                      ///< descent starts clearance / descent_rate_mps before
+                                      ///< it, the contact planned at its start, its length the
+                                      ///< margin for a descent slower than planned
   double sample_max_range_m{6.0};     ///< fixes further than this from the camera are not fed
                                       ///< to the predictor (their height noise is decimetres)
   double wait_gap_m{0.25};            ///< below landing.final_hold_height_m, the gear clearance
                                       ///< held while the deck is not quiescent (m): above the
                                       ///< heave the clearance servo lags (final_wait_gap_m's
                                       ///< 10 cm let a rising deck meet the skids)
+  double unpredicted_gap_m{0.50};     ///< the gear clearance held over a moving deck while
+                                      ///< its motion is not yet predictable (m): without the
+                                      ///< prediction's feed-forward the clearance servo lags a
+                                      ///< deck rising at 0.4 m/s by ~0.15 m
   double descent_rate_mps{0.30};      ///< the last centimetres' rate relative to the deck in a
                                       ///< quiescent period (m/s): wait_gap_m in 0.8 s
   DeckMotionParams predictor{landing_predictor()};
@@ -726,13 +736,18 @@ struct DeckTimingParams {
 template <class V>
 void visit_fields(V& v, DeckTimingParams& p) {
   v("enabled", p.enabled, range::any, "", "time the touchdown on the deck's predicted motion");
+  v("expected", p.expected, range::any, "",
+    "the platform is a deck expected to move: wait until the predictor is ready and finds it still");
   v("max_vz_mps", p.max_vz_mps, range::positive, "m/s", "deck vertical speed allowed over the window");
   v("max_tilt_deg", p.max_tilt_rad, range::open(0, 45), "deg", "deck tilt allowed over the window", M_PI / 180.0);
-  v("window_s", p.window_s, range::open_closed(0, 10), "s", "the quiescent period must last this long from now");
+  v("window_s", p.window_s, range::open_closed(0, 10), "s",
+    "the quiescent period must last this long; the descent starts before it, the contact planned at its start");
   v("sample_max_range_m", p.sample_max_range_m, range::positive, "m",
     "fixes further than this from the camera are not fed to the predictor");
   v("wait_gap_m", p.wait_gap_m, range::closed(0, 1), "m",
     "below landing.final_hold_height_m, the gear clearance held while the deck is not quiescent");
+  v("unpredicted_gap_m", p.unpredicted_gap_m, range::closed(0, 2), "m",
+    "the gear clearance held over a moving deck while its motion is not yet predictable");
   v("descent_rate_mps", p.descent_rate_mps, range::open_closed(0, 1), "m/s",
     "the last centimetres' rate relative to the deck in a quiescent period");
   v.nested("predictor", p.predictor);

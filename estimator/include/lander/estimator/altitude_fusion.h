@@ -52,6 +52,14 @@ struct AltitudeFusionParams {
   double baro_bias_rw_mps{0.01};    ///< baro bias drift, random walk (m/sqrt(s))
   double surface_rw_mps{0.02};      ///< surface height below changes (terrain) (m/sqrt(s))
   double platform_rw_mps{0.002};    ///< target plane height (cart bounces) (m/sqrt(s))
+  // A surface that moves (a boat's deck heaving decimetres at up to ~0.5 m/s): the surface
+  // and target-plane states random-walk at this rate instead (m/sqrt(s)), so the ultrasonic
+  // and vision measure the height over the moving deck without moving z and vz with it, and
+  // the barometer stays fused in the eq. 17 set as the height's anchor (its downwash error
+  // near the deck then enters the height; the landing servoes on vision's clearance). With a
+  // still surface's random walk the heave went into z: on sea state 3 the vertical velocity
+  // carried +-0.5 m/s of the deck's. 0 = the surface is still (seed 004's model).
+  double moving_surface_rw_mps{0.0};
   // Initial uncertainty (P_0).
   double initial_baro_bias_std_m{3.0};
   double initial_accel_bias_std_mps2{0.2};
@@ -130,6 +138,8 @@ void visit_fields(V& v, AltitudeFusionParams& p) {
     "surface height below changes (m/sqrt)");
   v("platform_rw_mps", p.platform_rw_mps, range::non_negative, "m/s",
     "target plane height (cart bounces) (m/sqrt)");
+  v("moving_surface_rw_mps", p.moving_surface_rw_mps, range::non_negative, "m/s",
+    "a moving surface (boat deck): its random walk (m/sqrt); 0 = still");
   v("initial_baro_bias_std_m", p.initial_baro_bias_std_m, range::positive, "m",
     "Initial uncertainty");
   v("initial_accel_bias_std_mps2", p.initial_accel_bias_std_mps2, range::positive, "m/s^2", "");
@@ -206,7 +216,8 @@ double vertical_accel_W(const ImuSample& imu, const Eigen::Quaterniond& q_WB,
 // Coming down into range in the eq. 15 set, the surface below is not known (s was last seen
 // long ago, or never: the platform); in-range readings are acquisition candidates and
 // step_count agreeing ones switch to the eq. 17 set and re-reference s the same way. While
-// in the eq. 17 set, s random-walks slowly (surface_rw_mps, gentle terrain).
+// in the eq. 17 set, s random-walks slowly (surface_rw_mps, gentle terrain); over a moving
+// deck (moving_surface_rw_mps > 0) s and c random-walk fast and the barometer stays fused.
 class AltitudeFusion {
  public:
   enum class Outcome {
