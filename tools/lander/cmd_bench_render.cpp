@@ -143,21 +143,42 @@ json time_distortion(Bench& b, const cv::Mat& img) {
           {"remap_ms_per_frame_max", sim::summarize(remap).max}};
 }
 
+// One stage of the camera pipeline on one render (ms per frame): `np` the camera with it on.
+std::vector<double> time_pipeline(Bench& b, const cv::Mat& img, sim::CameraParams np) {
+  np.blur_samples = 1;
+  sim::CameraPipeline pipe(np, 1);
+  std::vector<double> ms;
+  for (int i = 0; i < b.n; ++i) {
+    const auto t0 = Clock::now();
+    pipe.begin(0.0);
+    pipe.add(img);
+    pipe.finish(i, b.world.X_WC());
+    ms.push_back(ms_since(t0));
+  }
+  return ms;
+}
+
 // Read noise (camera.read_noise_dn, 2 DN as in motion_blur.yaml) on one render (ms per frame).
 std::vector<double> time_read_noise(Bench& b, const cv::Mat& img) {
   sim::CameraParams np = b.s.camera;
-  np.blur_samples = 1;
   np.read_noise_dn = 2.0;
-  sim::CameraPipeline noisy(np, 1);
-  std::vector<double> noise_ms;
-  for (int i = 0; i < b.n; ++i) {
-    const auto t0 = Clock::now();
-    noisy.begin(0.0);
-    noisy.add(img);
-    noisy.finish(i, b.world.X_WC());
-    noise_ms.push_back(ms_since(t0));
-  }
-  return noise_ms;
+  return time_pipeline(b, img, np);
+}
+
+// JPEG delivery (camera.jpeg_quality 80, the seed's camera as issue 54 gives it): encode and
+// decode per frame (ms), and the frame's size.
+json time_jpeg(Bench& b, const cv::Mat& img) {
+  sim::CameraParams jp = b.s.camera;
+  jp.jpeg_quality = 80;
+  const std::vector<double> ms = time_pipeline(b, img, jp);
+  sim::CameraPipeline one(jp, 1);
+  one.begin(0.0);
+  one.add(img);
+  one.finish(0, b.world.X_WC());
+  return {{"quality", jp.jpeg_quality},
+          {"ms_per_frame_median", sim::summarize(ms).median},
+          {"ms_per_frame_max", sim::summarize(ms).max},
+          {"bytes_per_frame", one.last_jpeg_bytes()}};
 }
 
 // A flight condition of the adaptive-blur comparison: height, constant velocities, cart speed.
@@ -347,7 +368,8 @@ int bench_render(const Args& args) {
   const json distortion = time_distortion(b, img);
   const std::vector<double> noise_ms = time_read_noise(b, img);
   const json adaptive = adaptive_blur(b, static_cast<int>(a.integer("blur-frames", 8, 1)));
-  const json j = report(b, t, blur, distortion, noise_ms, adaptive);
+  json j = report(b, t, blur, distortion, noise_ms, adaptive);
+  j["jpeg"] = time_jpeg(b, img);
   sim::write_json_file(a.value("json"), j);
   std::cout << sim::json_text(j);
   // Which GL device rendered these figures (a hardware EGL device, when one is present, is

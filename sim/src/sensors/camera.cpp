@@ -7,6 +7,7 @@
 
 #include <opencv2/calib3d.hpp>
 #include <fmt/format.h>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "lander/sim/render/renderer.h"
@@ -200,6 +201,27 @@ void CameraPipeline::add(const cv::Mat& render_bgr) {
 }
 
 CameraFrame CameraPipeline::finish(int index, const Eigen::Isometry3d& X_WC_mid) {
+  CameraFrame f = averaged(index, X_WC_mid);
+  deliver(&f);
+  return f;
+}
+
+// JPEG delivery (jpeg_quality): encoded with libjpeg through OpenCV (its default 4:2:0 chroma
+// subsampling, a UVC camera's) and decoded again, so the flight software, the video and the
+// saved frames get what a JPEG camera sends.
+void CameraPipeline::deliver(CameraFrame* f) {
+  last_jpeg_bytes_ = 0;
+  if (params_.jpeg_quality <= 0) return;
+  std::vector<uchar> jpeg;
+  if (!cv::imencode(".jpg", f->bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, params_.jpeg_quality})) {
+    throw std::runtime_error(fmt::format("camera frame {}: JPEG encoding failed", f->index));
+  }
+  last_jpeg_bytes_ = jpeg.size();
+  f->bgr = cv::imdecode(jpeg, cv::IMREAD_COLOR);
+  if (f->bgr.empty()) throw std::runtime_error(fmt::format("camera frame {}: JPEG decoding failed", f->index));
+}
+
+CameraFrame CameraPipeline::averaged(int index, const Eigen::Isometry3d& X_WC_mid) {
   if (count_ == 0) throw std::logic_error("CameraPipeline::finish without a render");
   CameraFrame f;
   f.index = index;

@@ -47,6 +47,10 @@ struct CameraParams {
                                  ///< (rad); YAML mount_error_deg
   Eigen::Vector3d mount_offset_m{Eigen::Vector3d::Zero()};   ///< true mount position off the
                                  ///< nominal one, in B (m)
+  int jpeg_quality{0};           ///< frames delivered as JPEG at this quality (1-100; libjpeg
+                                 ///< through OpenCV, 4:2:0 chroma as a UVC camera sends), each
+                                 ///< encoded and decoded before the flight software sees it;
+                                 ///< 0 = lossless frames (seed 000's camera sent JPG: Table 2)
   // Blur whose render count follows the image motion (blur_renders()).
   bool adaptive_blur() const { return blur_samples > 1 && blur_px_per_render > 0; }
   void validate() const {
@@ -84,6 +88,8 @@ void visit_fields(V& v, CameraParams& p) {
   v("mount_error_deg", p.mount_error_rad, range::any, "deg",
     "true mount rotation off the nominal one", M_PI / 180.0);
   v("mount_offset_m", p.mount_offset_m, range::any, "m", "true mount position off the nominal one");
+  v("jpeg_quality", p.jpeg_quality, range::closed(0, 100), "",
+    "frames delivered as JPEG at this quality (1-100, 4:2:0 chroma); 0 = lossless");
 }
 
 // One frame as the vehicle delivers it, plus the truth the simulator keeps beside it.
@@ -141,6 +147,8 @@ class CameraPipeline {
   void add(const cv::Mat& render_bgr); // one sub-render (pinhole, render_size())
   // Averages the sub-renders and finishes the frame. Throws if no render was added.
   CameraFrame finish(int index, const Eigen::Isometry3d& X_WC_mid);
+  // Bytes of the last frame's JPEG (0 without jpeg_quality).
+  std::size_t last_jpeg_bytes() const { return last_jpeg_bytes_; }
 
   const CameraParams& params() const { return params_; }
   cv::Size render_size() const { return render_size_; }
@@ -155,6 +163,11 @@ class CameraPipeline {
   cv::Mat first_, accum_;
   int count_ = 0;
   double t_start_ = 0.0;
+  std::size_t last_jpeg_bytes_ = 0;
+  // The frame's pixels as delivered: through JPEG when jpeg_quality is set.
+  void deliver(CameraFrame* f);
+  // The image itself (no gain, noise or JPEG); the remap or the mean of the renders else.
+  CameraFrame averaged(int index, const Eigen::Isometry3d& X_WC_mid);
 };
 
 // The camera on the vehicle in the loop: exposes at its rate, renders the world at the
