@@ -111,7 +111,7 @@ class LandingContext {
   // The deck moves and its touchdown is timed (controller.deck.enabled and the predictor's
   // moving()).
   bool deck_moving() const;
-  // A moving deck's height change since the last fix less the tracker's straight line (m).
+  // A moving deck's height since the last fix: the tracker's straight line taken back beyond a fresh fix's age (m).
   double deck_height_since_fix(double t_s) const;
   // Whether the deck is, by its prediction, quiescent (vertical speed and tilt within their
   // limits) from t_s for deck.window_s; false while the prediction is not trusted. `why`

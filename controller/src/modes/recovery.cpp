@@ -255,6 +255,9 @@ Setpoint RecoveryMode::servo(LandingContext& c, const Tick& k, double rel_speed,
   }
   const DescentStep d = descend(h_sp_m_, in, L);
   h_sp_m_ = d.clearance_sp_m;
+  // A moving deck out of sight: back off to the wait of an unpredicted deck (its height is
+  // held at the last fix meanwhile, LandingContext::deck_height_since_fix).
+  if (deck_moving_ && !fresh) h_sp_m_ = std::max(h_sp_m_, c.p.deck.unpredicted_gap_m);
   const Eigen::Vector2d e_vec = c.diag.platform_W_m.head<2>() - nav.p_W_m.head<2>();
   const Eigen::Vector2d a_plat = c.tracker.acceleration().head<2>();
   servo_int_ = servo_integral(servo_int_, e_vec, e_xy, c.diag.platform_v_W_mps.head<2>(), a_plat, dt, L);
