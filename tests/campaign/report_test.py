@@ -419,7 +419,20 @@ FULL_RUN_PLOTS = [r for r in FULL_SHOWN if r not in ("default-0005", "cart_1mps_
 SUMMARY_PLOTS = ["touchdown", "ecdf", "rate", "time_to_land"]
 
 
-class FullCampaign(unittest.TestCase):
+class ReportedCampaign(unittest.TestCase):
+    """A campaign directory made once for the class (cls.tmp, cls.proc: the report's run);
+    every test starts by checking that the report ran."""
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.tmp, ignore_errors=True)
+
+    def setUp(self):
+        self.assertEqual(self.proc.returncode, 0, "campaign_report.py failed:\n" +
+                         self.proc.stderr.decode(errors="replace"))
+
+
+class FullCampaign(ReportedCampaign):
     @classmethod
     def setUpClass(cls):
         cls.tmp = tempfile.mkdtemp(prefix="campaign_report_test-")
@@ -432,14 +445,6 @@ class FullCampaign(unittest.TestCase):
         cls.report_s = time.monotonic() - t0
         cls.report = os.path.join(cls.dir, "report.html")
         keep("full", cls.dir)
-
-    @classmethod
-    def tearDownClass(cls):
-        shutil.rmtree(cls.tmp, ignore_errors=True)
-
-    def setUp(self):
-        self.assertEqual(self.proc.returncode, 0, "campaign_report.py failed:\n" +
-                         self.proc.stderr.decode(errors="replace"))
 
     def test_written_atomically(self):
         self.assertTrue(os.path.isfile(self.report))
@@ -807,7 +812,7 @@ def count_colour(img, rgb, tol=0.04):
     return int(np.sum(np.all(np.abs(flatten_rgb(img) - np.array(rgb)) < tol, axis=-1)))
 
 
-class DeckCampaign(unittest.TestCase):
+class DeckCampaign(ReportedCampaign):
     @classmethod
     def setUpClass(cls):
         cls.tmp = tempfile.mkdtemp(prefix="campaign_report_deck-")
@@ -818,13 +823,8 @@ class DeckCampaign(unittest.TestCase):
         cls.report = os.path.join(cls.dir, "report.html")
         keep("deck", cls.dir)
 
-    @classmethod
-    def tearDownClass(cls):
-        shutil.rmtree(cls.tmp, ignore_errors=True)
-
     def setUp(self):
-        self.assertEqual(self.proc.returncode, 0, "campaign_report.py failed:\n" +
-                         self.proc.stderr.decode(errors="replace"))
+        super().setUp()
         self.raw, self.page = parse(self.report)
         self.section = section_html(self.raw, "deck")
 
