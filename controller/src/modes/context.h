@@ -57,9 +57,10 @@ inline double yaw_of(const Eigen::Quaterniond& q_WB) {
 // The vehicle's height in an inertial frame for the deck predictor (any datum): the IMU's
 // vertical acceleration integrated, its velocity drawn towards the navigation's vertical
 // velocity with time constant kLeak_s. Over a moving deck the navigation's vertical channel
-// carries the deck's heave (the altitude fusion rides on the ultrasonic and vision, which see
-// the deck); at the deck's periods (4-12 s) this filter passes only 1/(omega tau) of that,
-// while an accelerometer bias becomes a constant velocity offset, a trend the predictor fits.
+// may carry the deck's heave (a still-surface altitude fusion rides on the ultrasonic and
+// vision, which see the deck; estimator.altitude.moving_surface_rw_mps keeps it out); at the
+// deck's periods (4-12 s) this filter passes only 1/(omega tau) of that, while an
+// accelerometer bias becomes a constant velocity offset, a trend the predictor fits.
 class InertialHeight {
  public:
   static constexpr double kLeak_s = 30.0;
@@ -108,14 +109,15 @@ class LandingContext {
   // deck's own axes on a straight course; the tilt's size whatever the course). Fixes farther
   // than deck.sample_max_range_m from the camera are left out.
   void feed_deck(const PlatformFix& fix);
-  // The deck moves and its touchdown is timed (controller.deck.enabled and the predictor's
-  // moving()).
+  // The deck moves and its touchdown is timed (controller.deck.enabled, and the predictor's
+  // moving(), or deck.expected while the predictor is not ready).
   bool deck_moving() const;
-  // A moving deck's height since the last fix: the tracker's straight line taken back beyond a fresh fix's age (m).
+  // A moving deck's height since the last fix: the tracker's straight line taken back beyond
+  // a fresh fix's age (m).
   double deck_height_since_fix(double t_s) const;
-  // Whether the deck is, by its prediction, quiescent (vertical speed and tilt within their
-  // limits) from t_s for deck.window_s; false while the prediction is not trusted. `why`
-  // says why not, or the window when it is.
+  // Whether a quiescent period (vertical speed and tilt within their limits for
+  // deck.window_s, by the prediction) holds the contact planned lead_s from t_s; false while
+  // the prediction is not trusted. `why` says why not, or the period when it does.
   bool deck_quiescent(double t_s, double lead_s, std::string* why, QuiescentWindow* window = nullptr) const;
 
   // --- records for summary.json --------------------------------------------------------
