@@ -6,12 +6,25 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include <fmt/format.h>
 
 #include "modes/modes.h"
 
 namespace lander::ctl {
+namespace {
+
+// The platform's broadcast velocity while the broadcast is fresh (telemetry_max_age_s), for
+// the tracker's velocity filter to start from.
+std::optional<Eigen::Vector3d> broadcast_velocity(const modes::LandingContext& c, double t_s) {
+  Eigen::Vector2d p, v;
+  if (!c.broadcast_platform(t_s, &p, &v)) return std::nullopt;
+  return Eigen::Vector3d(v.x(), v.y(), 0.0);
+}
+
+}  // namespace
+
 
 double accel_feed_forward_share(double a_mps2, double deadband_mps2, double full_mps2) {
   if (!(a_mps2 > deadband_mps2)) return 0.0;
@@ -248,6 +261,7 @@ RotorCommand LandingController::step(double t_s, const NavState& nav, const ImuS
   }
   // Vision results in time order, each with the nav state of its own frame time.
   if (started_ && !pending_.empty()) {
+    c.tracker.set_velocity_prior(broadcast_velocity(c, t_s));
     std::sort(pending_.begin(), pending_.end(),
               [](const PlatformObservation& a, const PlatformObservation& b) { return a.t_s < b.t_s; });
     for (const PlatformObservation& obs : pending_) {

@@ -160,13 +160,21 @@ void PlatformTracker::filter_update(const PlatformFix& fix) {
     kf_t_ = fix.t_s;
     kf_x_.row(0) = z.transpose();
     kf_x_.row(1).setZero();
-    // Velocity unknown: 1 m/s sigma (a cart walks at ~0.5-1.5 m/s).
-    kf_P_ << R, 0.0, 0.0, 1.0;
+    // Velocity unknown: 1 m/s sigma (a cart walks at ~0.5-1.5 m/s); the broadcast's
+    // horizontal velocity when one is received (a fast platform's first fixes, seen briefly
+    // at the view's edge, cannot tell 5 m/s from rest against a prior at rest).
+    double v_var = 1.0;
+    if (velocity_prior_) {
+      kf_x_.row(1).head<2>() = velocity_prior_->head<2>().transpose();
+      v_var = p_.broadcast_velocity_std_mps * p_.broadcast_velocity_std_mps;
+    }
+    kf_P_ << R, 0.0, 0.0, v_var;
     kf_outliers_in_row_ = 0;
     ca_t_ = fix.t_s;
     ca_x_.setZero();
     ca_x_.row(0) = z.transpose();
-    ca_P_ = Eigen::Vector3d(R, 1.0, 1.0).asDiagonal();  // 1 m/s^2: a cart's braking is ~0.6
+    ca_x_.row(1) = kf_x_.row(1);
+    ca_P_ = Eigen::Vector3d(R, v_var, 1.0).asDiagonal();  // 1 m/s^2: a cart's braking is ~0.6
   };
   if (!kf_init_) {
     restart();

@@ -436,6 +436,58 @@ TEST(SearchWithBroadcast, ClimbsToTheBroadcastSearchHeight) {
   EXPECT_NEAR(z_end, cfg.controller.landing.telemetry_search_height_m, 0.3);
 }
 
+// A fast platform (issue 56): 5 m/s along +x, turning left onto a 20 m arc at kTurnAt_s;
+// seen only until kTurnAt_s - 0.5 s, so the tracker's prediction after the loss runs on
+// straight while the platform turns away.
+constexpr double kFastSpeed_mps = 5.0;
+constexpr double kFastArc_m = 20.0;
+constexpr double kTurnAt_s = 2.0;
+Eigen::Vector3d straight_then_arc(double t) {
+  if (t <= kTurnAt_s) return Eigen::Vector3d(kFastSpeed_mps * t, 0.0, 0.8);
+  const double th = kFastSpeed_mps * (t - kTurnAt_s) / kFastArc_m;
+  return Eigen::Vector3d(kFastSpeed_mps * kTurnAt_s + kFastArc_m * std::sin(th), kFastArc_m * (1.0 - std::cos(th)),
+                         0.8);
+}
+
+// The search's centre relative to the platform 6 s after it turned (the search after the
+// loss, flying to its centre), with the broadcast on; telemetry_override_m as given.
+double centre_error_after_turn(double override_m, long* broadcast_steps) {
+  LandingRunConfig cfg;
+  cfg.platform.path = straight_then_arc;
+  cfg.start_W_m = Eigen::Vector3d(0.0, 0.0, 10.0);
+  cfg.controller.landing.observe_frames = kNeverApproach;
+  cfg.controller.landing.telemetry_override_m = override_m;
+  cfg.max_time_s = kTurnAt_s + 6.0;
+  cfg.visible = [](double t, const Eigen::Isometry3d&) { return t < kTurnAt_s - 0.5; };
+  cfg.feed = broadcast_feed(cfg.platform);
+  double err = 0.0;
+  const PlatformTruth plat = cfg.platform;
+  cfg.on_step = [&](double t, const HexModel&, const LandingController& c) {
+    err = (c.diagnostics().search_centre_W_m - plat.p_W(t)).head<2>().norm();
+    *broadcast_steps = c.telemetry_search_steps();
+  };
+  run_landing(cfg);
+  return err;
+}
+
+// The prediction from 1.5 s of a straight 5 m/s platform runs straight on while the platform
+// turns 1.5 rad onto its arc, ~13 m to the side after 6 s. Beyond telemetry_override_m (6 m)
+// from the broadcast position the search's centre is the broadcast's: within its error (1 m)
+// and its latency's extrapolation along the arc (kArcExtrapolation_m); held to the
+// prediction (override at 1 km) it is off by more than the override distance.
+constexpr double kArcExtrapolation_m = 0.2;  // 0.5 x 1.25 m/s^2 x (0.45 s)^2, rounded up
+TEST(SearchWithBroadcast, APredictionFarFromTheBroadcastGivesWayToIt) {
+  long steps_override = 0, steps_kept = 0;
+  const double with_override = centre_error_after_turn(6.0, &steps_override);
+  const double kept = centre_error_after_turn(1000.0, &steps_kept);
+  std::cout << "6 s after the turn the search centre is " << with_override << " m from the platform with the "
+            << "override, " << kept << " m on the prediction\n";
+  EXPECT_LT(with_override, kBroadcastError_W_m.head<2>().norm() + kArcExtrapolation_m);
+  EXPECT_GT(steps_override, 0);
+  EXPECT_GT(kept, 6.0);
+  EXPECT_EQ(steps_kept, 0);
+}
+
 // A broadcast older than telemetry_max_age_s is not flown to: the search sweeps in place
 // (as without one) for search_spiral_after_s; a message without a fix (valid = false) is
 // ignored and one with a non-finite position is dropped and counted.

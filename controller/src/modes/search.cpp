@@ -203,17 +203,23 @@ Setpoint SearchMode::sweep(LandingContext& c, const Tick& k) {
 // and a climb at search_climb_rate_mps to at most search_max_height_m above the top for a
 // wider view.
 //
-// Once the tracker's history is too old to predict from, the platform's broadcast position
-// (when one is received) carries the centre instead of leaving it where the prediction led.
+// Once the tracker's history is too old to predict from, or while its prediction lies more
+// than telemetry_override_m from the platform's broadcast position (a fast platform seen for
+// a moment: a velocity from a few fixes puts it tens of metres off within seconds), the
+// broadcast carries the centre.
 Setpoint SearchMode::after_loss(LandingContext& c, double t_s) {
   const LandingParams& L = c.p.landing;
   Eigen::Vector2d centre_v = Eigen::Vector2d::Zero();
-  Eigen::Vector2d pred;
-  if (c.predict_platform(t_s, &pred, &centre_v)) {
-    centre_ = pred;
-  } else if (c.broadcast_platform(t_s, &pred, &centre_v)) {
-    centre_ = pred;
+  Eigen::Vector2d pred, pred_v, bc, bc_v;
+  const bool predicted = c.predict_platform(t_s, &pred, &pred_v);
+  const bool broadcast = c.broadcast_platform(t_s, &bc, &bc_v);
+  if (broadcast && (!predicted || (pred - bc).norm() > L.telemetry_override_m)) {
+    centre_ = bc;
+    centre_v = bc_v;
     ++c.telemetry_search_steps;
+  } else if (predicted) {
+    centre_ = pred;
+    centre_v = pred_v;
   }
   c.diag.search_centre_W_m = Eigen::Vector3d(centre_.x(), centre_.y(), c.platform_z());
   Setpoint sp = c.hold(c.hold_p);

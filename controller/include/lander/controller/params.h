@@ -184,6 +184,13 @@ struct TrackerParams {
                                         ///< turn and braking instead of straight on: at
                                         ///< 4.2 m/s on a 30 m arc the straight line put the
                                         ///< goal 2-3 m outside the arc (issue 56)
+  double broadcast_velocity_std_mps{0.5}; ///< with the platform's broadcast received, the
+                                        ///< velocity filter starts from its velocity with
+                                        ///< this sigma (m/s): the broadcast's velocity error
+                                        ///< and the platform's change over its latency.
+                                        ///< Without one it starts at 0 +- 1 m/s (a walking
+                                        ///< cart), which a 5.7 m/s platform seen for 0.15 s
+                                        ///< at the view's edge pulled to 1.6 m/s (issue 56)
   void validate() const;
 };
 
@@ -221,6 +228,8 @@ void visit_fields(V& v, TrackerParams& p) {
     "bound of the turn rate");
   v("predict_turns", p.predict_turns, range::any, "",
     "the approach's prediction follows the motion model's turn and braking");
+  v("broadcast_velocity_std_mps", p.broadcast_velocity_std_mps, range::positive, "m/s",
+    "with the platform's broadcast, the velocity filter starts from its velocity with this sigma");
 }
 
 // Landing mode machine (seed 000 section 3) and the safety behaviour the paper leaves out.
@@ -413,6 +422,12 @@ struct LandingParams {
                                           ///< search_expand_after_s after the vehicle first
                                           ///< came this close to it (m): ~ the view's
                                           ///< narrow half-width at 6 m
+  double telemetry_override_m{6.0};       ///< after a loss, the motion model's prediction is
+                                          ///< flown while it lies within this distance of
+                                          ///< the broadcast position, the broadcast beyond
+                                          ///< it (m): two receivers' errors are ~1-3 m, a
+                                          ///< prediction from a few fixes of a fast platform
+                                          ///< tens of metres off after 10 s (issue 56)
   double telemetry_search_height_m{6.0}; ///< ... flown at least this high above the surface
                                           ///< below (by the fused altitude) (m): the view's
                                           ///< narrow half-width at 6 m (~3 m) covers the
@@ -624,6 +639,8 @@ void visit_search_and_decisions_fields(V& v, LandingParams& p) {
     "use the broadcast while its latest message was sampled at most");
   v("telemetry_arrive_radius_m", p.telemetry_arrive_radius_m, range::positive, "m",
     "the search pattern around the broadcast position begins");
+  v("telemetry_override_m", p.telemetry_override_m, range::positive, "m",
+    "after a loss, the prediction is flown within this distance of the broadcast, the broadcast beyond");
   v("telemetry_search_height_m", p.telemetry_search_height_m, range::positive, "m",
     "... flown at least this high above the surface below");
   v("platform_half_size_m", p.platform_half_size_m, range::positive, "m",

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <deque>
+#include <optional>
 #include <string>
 
 #include <Eigen/Core>
@@ -95,6 +96,12 @@ class PlatformTracker {
                               const Eigen::Isometry3d& X_BC);
 
   void clear();  ///< forgets all fixes (re-acquisition starts a fresh history)
+
+  // The platform's velocity from elsewhere (its broadcast, W axes, m/s), or nothing: the
+  // velocity filter's next (re)start begins from its horizontal part with
+  // broadcast_velocity_std_mps instead of at rest with 1 m/s. The caller keeps it current
+  // (nothing once the broadcast is stale).
+  void set_velocity_prior(const std::optional<Eigen::Vector3d>& v_W_mps) { velocity_prior_ = v_W_mps; }
 
   int num_fixes() const { return static_cast<int>(fixes_.size()); }  ///< in history_s
   /// Keyframes turned into fixes since the last clear() (not bounded by history_s): the
@@ -191,6 +198,7 @@ class PlatformTracker {
   Eigen::Matrix<double, 2, 3> kf_x_{Eigen::Matrix<double, 2, 3>::Zero()};
   Eigen::Matrix2d kf_P_{Eigen::Matrix2d::Identity()};
   int kf_outliers_in_row_{0};
+  std::optional<Eigen::Vector3d> velocity_prior_;  ///< see set_velocity_prior()
   // Acceleration filter: rows (position, velocity, acceleration), one column per axis.
   double ca_t_{0.0};
   Eigen::Matrix3d ca_x_{Eigen::Matrix3d::Zero()};
