@@ -160,10 +160,11 @@ void PlatformTracker::filter_update(const PlatformFix& fix) {
     kf_t_ = fix.t_s;
     kf_x_.row(0) = z.transpose();
     kf_x_.row(1).setZero();
-    // Velocity unknown: 1 m/s sigma (a cart walks at ~0.5-1.5 m/s); the broadcast's
-    // horizontal velocity when one is received (a fast platform's first fixes, seen briefly
-    // at the view's edge, cannot tell 5 m/s from rest against a prior at rest).
-    double v_var = 1.0;
+    // Velocity unknown: at rest with velocity_prior_std_mps (a cart walks at ~0.5-1.5 m/s);
+    // the broadcast's horizontal velocity when one is received (a fast platform's first
+    // fixes, seen briefly at the view's edge, cannot tell 5 m/s from rest against a prior at
+    // rest).
+    double v_var = p_.velocity_prior_std_mps * p_.velocity_prior_std_mps;
     if (velocity_prior_) {
       kf_x_.row(1).head<2>() = velocity_prior_->head<2>().transpose();
       v_var = p_.broadcast_velocity_std_mps * p_.broadcast_velocity_std_mps;

@@ -184,6 +184,11 @@ struct TrackerParams {
                                         ///< turn and braking instead of straight on: at
                                         ///< 4.2 m/s on a 30 m arc the straight line put the
                                         ///< goal 2-3 m outside the arc (issue 56)
+  double velocity_prior_std_mps{1.0};   ///< without a broadcast, the velocity filter starts
+                                        ///< at rest with this sigma (m/s): the platform's
+                                        ///< expected speed. 1 m/s for a walking cart; a
+                                        ///< 5 m/s platform wants ~its speed, or its first
+                                        ///< fixes are pulled towards rest (issue 56)
   double broadcast_velocity_std_mps{0.5}; ///< with the platform's broadcast received, the
                                         ///< velocity filter starts from its velocity with
                                         ///< this sigma (m/s): the broadcast's velocity error
@@ -228,6 +233,8 @@ void visit_fields(V& v, TrackerParams& p) {
     "bound of the turn rate");
   v("predict_turns", p.predict_turns, range::any, "",
     "the approach's prediction follows the motion model's turn and braking");
+  v("velocity_prior_std_mps", p.velocity_prior_std_mps, range::positive, "m/s",
+    "without a broadcast, the velocity filter starts at rest with this sigma");
   v("broadcast_velocity_std_mps", p.broadcast_velocity_std_mps, range::positive, "m/s",
     "with the platform's broadcast, the velocity filter starts from its velocity with this sigma");
 }
