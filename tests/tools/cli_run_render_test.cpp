@@ -2,6 +2,7 @@
 // loads back to the same scenario, and the same seed gives the same files.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
 
 #include "common/json_checks.h"
@@ -55,6 +56,45 @@ TEST(CliRun, ClosedLoopRunsWithTheSameSeedGiveIdenticalOutputs) {
     EXPECT_GT(a.size(), 100u) << f;
     EXPECT_EQ(a, slurp(dir + "/b/" + f)) << f;
   }
+}
+
+// The camera's frame timing in the loop (issue 54): of 3 s of frames (90) a third are dropped
+// and never reach the flight software (its vision count is the delivered frames), the stamps
+// carry their jitter, the latency its mean; the same seed gives the same files. The keys at 0
+// (the scenario as shipped): every frame delivered with an exact stamp.
+TEST(CliRun, DroppedAndJitteredFramesAreCountedAndDeterministic) {
+  const std::string dir = lander::test::make_temp_dir("lander_frame_timing");
+  std::string text = slurp(std::string(LANDER_SCENARIOS_DIR) + "/default.yaml");
+  text.replace(text.find("duration_s: 90"), 14, "duration_s: 3.0");
+  std::ofstream(dir + "/plain.yaml") << text;
+  std::ofstream(dir + "/s.yaml") << text
+                                 << "camera:\n  frame_drop_prob: 0.3\n  timestamp_jitter_ms: 4\n"
+                                    "  delivery_latency_ms: 20\n  delivery_latency_std_ms: 5\n";
+  ASSERT_EQ(run_lander("run " + dir + "/s.yaml --out " + dir + "/a --quiet"), 1);  // 3 s: not landed
+  ASSERT_EQ(run_lander("run " + dir + "/s.yaml --out " + dir + "/b --quiet"), 1);
+  for (const char* f : {"summary.json", "trace.csv"}) EXPECT_EQ(slurp(dir + "/a/" + f), slurp(dir + "/b/" + f)) << f;
+  using lander::test::number_at;
+  const nlohmann::json s = lander::test::read_json_file(dir + "/a/summary.json");
+  constexpr double kFrames = 90;  // 3 s at 30 fps
+  EXPECT_EQ(number_at(s, "camera_delivery.frames_captured"), kFrames);
+  const double dropped = number_at(s, "camera_delivery.frames_dropped");
+  const double delivered = number_at(s, "camera_delivery.frames_delivered");
+  EXPECT_EQ(dropped + delivered, kFrames);
+  // Binomial(90, 0.3): 27 +- 4.3 (1 sigma); 4 sigma either way.
+  EXPECT_NEAR(dropped, 27.0, 4 * std::sqrt(kFrames * 0.3 * 0.7));
+  EXPECT_EQ(number_at(s, "vision.frames"), delivered);
+  // ~63 stamps: their rms within 35 % of 4 ms (4 sigma of a std from 63 draws: 4 / sqrt(126)),
+  // the latency's mean within 4 sigma of 20 ms (5 / sqrt(63) = 0.63 ms).
+  EXPECT_NEAR(number_at(s, "camera_delivery.stamp_error_ms.rms"), 4.0, 4.0 * 4.0 / std::sqrt(2 * 63.0));
+  EXPECT_NEAR(number_at(s, "camera_delivery.delivery_latency_ms.mean"), 20.0, 4 * 5.0 / std::sqrt(63.0));
+
+  ASSERT_EQ(run_lander("run " + dir + "/plain.yaml --out " + dir + "/plain --quiet"), 1);
+  const nlohmann::json p = lander::test::read_json_file(dir + "/plain/summary.json");
+  EXPECT_EQ(number_at(p, "camera_delivery.frames_dropped"), 0);
+  EXPECT_EQ(number_at(p, "camera_delivery.frames_delivered"), kFrames);
+  EXPECT_EQ(number_at(p, "vision.frames"), kFrames);
+  EXPECT_EQ(number_at(p, "camera_delivery.stamp_error_ms.max_abs"), 0.0);
+  EXPECT_EQ(number_at(p, "camera_delivery.delivery_latency_ms.max"), 0.0);
 }
 
 TEST(CliRun, ClosedLoopWithVideoWritesBothVideosAndASummary) {

@@ -17,6 +17,7 @@
 #include <ctime>
 #include <exception>
 #include <iostream>
+#include <limits>
 #include <mutex>
 #include <optional>
 #include <thread>
@@ -101,6 +102,15 @@ class VisionOutliers {
   bool started_ = false;
 };
 
+// summary.json's camera_delivery: the frames the flight software received of those captured.
+Json delivery_json(const FrameDeliveryStats& d) {
+  return Json{{"frames_captured", d.captured()},
+              {"frames_delivered", d.delivered()},
+              {"frames_dropped", d.dropped()},
+              {"stamp_error_ms", {{"rms", 1e3 * d.stamp_error_rms_s()}, {"max_abs", 1e3 * d.stamp_error_max_abs_s()}}},
+              {"delivery_latency_ms", {{"mean", 1e3 * d.delivery_latency_mean_s()}, {"max", 1e3 * d.delivery_latency_max_s()}}}};
+}
+
 // One camera frame's vision work: the frame, what the recorder captured at its exposure end,
 // and the flight software's job for it (FrameJob::process: from the frame alone).
 struct VisionJob {
@@ -108,6 +118,7 @@ struct VisionJob {
   Recorder::FrameCapture capture;
   std::unique_ptr<flight::FrameJob> work;
   double proc_ms{0};                    ///< wall time of FrameJob::process
+  double delivery_latency_s{0};         ///< the frame's transfer to the computer (FrameTiming)
 };
 
 // A processed frame waiting for its delivery time, or (change indication) a recorded result.
@@ -265,6 +276,7 @@ struct ClosedLoop::Impl {
         plant(s, world),
         sensors(s.sensors, s.seed),
         camera(s.camera, derive_seed(s.seed, "camera"), dt),
+        frame_timing(s.camera, derive_seed(s.seed, "camera_timing")),
         flight_owner(std::move(fs)),
         flight(*flight_owner),
         builtin(dynamic_cast<flight::FlightStack*>(flight_owner.get())),
@@ -314,6 +326,9 @@ struct ClosedLoop::Impl {
     if (replay) return;
     std::optional<CameraFrame> frame = camera.advance(t, world, *renderer, &res.render_ms);
     if (!frame) return;
+    const FrameTiming timing = frame_timing.at(frame->index);
+    delivered_frames.add(timing);
+    if (timing.dropped) return;  // never reaches the flight software (nor the saved frames)
     if (!o.save_frames_dir.empty()) save_frame_png(o.save_frames_dir, *frame);
     if (vision.pending()) finish_vision();
     VisionJob job;
@@ -327,12 +342,16 @@ struct ClosedLoop::Impl {
     }
     flight::CameraFrameIn in;
     in.index = job.frame.index;
-    in.exposure = job.frame.exposure;
-    in.stamp_s = job.frame.exposure.t_end_s;
+    // What the driver reports: its stamp (the exposure end, with the stamp's error) and the
+    // exposure interval that ends there.
+    in.exposure.t_start_s = job.frame.exposure.t_start_s + timing.stamp_error_s;
+    in.exposure.t_end_s = job.frame.exposure.t_end_s + timing.stamp_error_s;
+    in.stamp_s = in.exposure.t_end_s;
     in.image = {job.frame.bgr.cols, job.frame.bgr.rows, static_cast<int>(job.frame.bgr.step[0]), job.frame.bgr.data};
     job.work = flight.begin_frame(in);
+    job.delivery_latency_s = timing.delivery_latency_s;
     const double t_end = job.frame.exposure.t_end_s;
-    vision.submit(std::move(job), t_end + s.computer.vision_latency_s);
+    vision.submit(std::move(job), t_end + timing.delivery_latency_s + s.computer.vision_latency_s);
     if (!vision.overlapped()) finish_vision();
   }
 
@@ -431,7 +450,9 @@ struct ClosedLoop::Impl {
       d.detected = true;
     }
     const double latency = s.computer.measured_latency ? j.proc_ms * 1e-3 : s.computer.vision_latency_s;
-    const double deliver_t = j.frame.exposure.t_end_s + latency;
+    // After the frame's own delivery latency; never before the previous frame's result.
+    const double deliver_t = std::max(last_deliver_t, j.frame.exposure.t_end_s + j.delivery_latency_s + latency);
+    last_deliver_t = deliver_t;
     if (!o.record_vision.empty()) {
       vision_log.push_back({j.frame.index, deliver_t, static_cast<const flight::RingFrameJob&>(*j.work).result()});
     }
@@ -468,6 +489,7 @@ struct ClosedLoop::Impl {
     res.outliers_injected = recorder.outliers_injected();
     recorder.finish(outcome, flight, summary);
     summary["judged_past_duration_s"] = res.judged_past_duration_s;
+    summary["camera_delivery"] = delivery_json(delivered_frames);
     if (profile) profile->commit();
     if (!o.record_vision.empty()) write_vision_log(o.record_vision, vision_log);
     return res;
@@ -481,6 +503,9 @@ struct ClosedLoop::Impl {
   Plant plant;                // MuJoCo world, rotors, ground effect, wind, cart
   SensorSuite sensors;        // IMU, barometer, GPS, ultrasonic, magnetometer, telemetry
   CameraRig camera;           // exposures, renders (motion blur), image noise
+  FrameTimingModel frame_timing;      // drops, stamp jitter, delivery latency per frame
+  FrameDeliveryStats delivered_frames;  // what of it the flight software received
+  double last_deliver_t{-std::numeric_limits<double>::infinity()};  // frames keep their order
   // The flight software, from the flight configuration only (declared before everything
   // that holds its frame jobs: a plugin's code must outlive them).
   std::unique_ptr<flight::FlightSoftware> flight_owner;

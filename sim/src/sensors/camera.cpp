@@ -2,7 +2,9 @@
 
 #include <chrono>
 
+#include <algorithm>
 #include <cmath>
+#include <random>
 #include <stdexcept>
 
 #include <opencv2/calib3d.hpp>
@@ -265,6 +267,48 @@ CameraFrame CameraPipeline::averaged(int index, const Eigen::Isometry3d& X_WC_mi
   }
   mean.convertTo(f.bgr, CV_8UC3);  // rounds and saturates
   return f;
+}
+
+FrameTimingModel::FrameTimingModel(const CameraParams& p, std::uint64_t seed)
+    : drop_prob_(p.frame_drop_prob),
+      jitter_s_(p.timestamp_jitter_s),
+      latency_s_(p.delivery_latency_s),
+      latency_std_s_(p.delivery_latency_std_s),
+      seed_(seed) {}
+
+FrameTiming FrameTimingModel::at(int frame_index) const {
+  FrameTiming t;
+  t.delivery_latency_s = latency_s_;
+  if (drop_prob_ <= 0 && jitter_s_ <= 0 && latency_std_s_ <= 0) return t;
+  // One generator per frame, the three draws always made in the same order.
+  std::mt19937_64 rng(seed_ ^ (0xBF58476D1CE4E5B9ull * static_cast<std::uint64_t>(frame_index + 1)));
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  const double u = u01(rng), n_stamp = n01(rng), n_latency = n01(rng);
+  t.dropped = u < drop_prob_;
+  t.stamp_error_s = jitter_s_ * n_stamp;
+  t.delivery_latency_s = std::max(0.0, latency_s_ + latency_std_s_ * n_latency);
+  return t;
+}
+
+void FrameDeliveryStats::add(const FrameTiming& t) {
+  ++captured_;
+  if (t.dropped) {
+    ++dropped_;
+    return;
+  }
+  stamp_sq_sum_ += t.stamp_error_s * t.stamp_error_s;
+  stamp_max_abs_s_ = std::max(stamp_max_abs_s_, std::abs(t.stamp_error_s));
+  latency_sum_s_ += t.delivery_latency_s;
+  latency_max_s_ = std::max(latency_max_s_, t.delivery_latency_s);
+}
+
+double FrameDeliveryStats::stamp_error_rms_s() const {
+  return delivered() > 0 ? std::sqrt(stamp_sq_sum_ / static_cast<double>(delivered())) : 0.0;
+}
+
+double FrameDeliveryStats::delivery_latency_mean_s() const {
+  return delivered() > 0 ? latency_sum_s_ / static_cast<double>(delivered()) : 0.0;
 }
 
 void save_frame_png(const std::string& dir, const CameraFrame& frame) {

@@ -31,8 +31,9 @@
 // ## Threading and the processing time of a camera frame
 //   The simulator models a frame's processing as taking computer.vision_latency_ms (or, with
 //   computer.measured_latency, the measured wall time of FrameJob::process): the result is
-//   delivered (deliver_frame) at the exposure end plus that latency, whatever the processing
-//   really cost. Meanwhile the plant, the sensors and every other call go on. So that this can
+//   delivered (deliver_frame) at the exposure end plus that latency (plus the camera's own
+//   delivery latency, camera.delivery_latency_ms), whatever the processing really cost. A
+//   frame the camera drops (camera.frame_drop_prob) never reaches begin_frame. Meanwhile the plant, the sensors and every other call go on. So that this can
 //   run in parallel, FrameJob::process may be called on a worker thread concurrently with any
 //   other call on the loop thread; it must touch only what begin_frame captured into the job
 //   and state that only frame jobs use (a detector's tracking state: jobs run one at a time,
@@ -85,8 +86,9 @@ struct ImageView {
 // One camera frame with the metadata a camera driver gives.
 struct CameraFrameIn {
   long index{0};              ///< frame number from 0
-  ExposureInterval exposure;  ///< exposure start and end (s)
-  double stamp_s{0.0};        ///< the driver's timestamp (s): the exposure end
+  ExposureInterval exposure;  ///< exposure start and end (s) as the driver reports them:
+                              ///< they carry its stamp's error (camera.timestamp_jitter_ms)
+  double stamp_s{0.0};        ///< the driver's timestamp (s): the reported exposure end
   ImageView image;
 };
 

@@ -51,6 +51,18 @@ struct CameraParams {
                                  ///< through OpenCV, 4:2:0 chroma as a UVC camera sends), each
                                  ///< encoded and decoded before the flight software sees it;
                                  ///< 0 = lossless frames (seed 000's camera sent JPG: Table 2)
+  // Frame timing of a USB camera on a busy computer (issue 54): drops, stamp jitter and a
+  // delivery latency that varies; all 0 = every frame delivered, stamped at its exposure end.
+  double frame_drop_prob{0.0};   ///< probability that a frame never reaches the flight
+                                 ///< software (bus or computer busy), drawn per frame (-)
+  double timestamp_jitter_s{0.0};///< std of the driver stamp's Gaussian error (s); the stamp
+                                 ///< and the exposure interval the driver reports move by it;
+                                 ///< YAML timestamp_jitter_ms
+  double delivery_latency_s{0.0};///< mean extra time from the exposure end to the frame's
+                                 ///< arrival (transfer, decode) (s), before the computer's
+                                 ///< vision latency; YAML delivery_latency_ms
+  double delivery_latency_std_s{0.0};///< its std per frame (s), a Gaussian cut at 0; frames
+                                 ///< keep their order; YAML delivery_latency_std_ms
   // Blur whose render count follows the image motion (blur_renders()).
   bool adaptive_blur() const { return blur_samples > 1 && blur_px_per_render > 0; }
   void validate() const {
@@ -90,7 +102,55 @@ void visit_fields(V& v, CameraParams& p) {
   v("mount_offset_m", p.mount_offset_m, range::any, "m", "true mount position off the nominal one");
   v("jpeg_quality", p.jpeg_quality, range::closed(0, 100), "",
     "frames delivered as JPEG at this quality (1-100, 4:2:0 chroma); 0 = lossless");
+  v("frame_drop_prob", p.frame_drop_prob, range::closed(0, 0.9), "probability",
+    "probability that a frame never reaches the flight software");
+  v("timestamp_jitter_ms", p.timestamp_jitter_s, range::closed(0, 100), "ms",
+    "std of the driver stamp's Gaussian error", 1e-3);
+  v("delivery_latency_ms", p.delivery_latency_s, range::closed(0, 1000), "ms",
+    "mean extra time from the exposure end to the frame's arrival", 1e-3);
+  v("delivery_latency_std_ms", p.delivery_latency_std_s, range::closed(0, 1000), "ms",
+    "its std per frame (a Gaussian cut at 0)", 1e-3);
 }
+
+// One frame's delivery (FrameTimingModel): dropped or not, the driver stamp's error and the
+// extra delivery latency, in seconds.
+struct FrameTiming {
+  bool dropped{false};
+  double stamp_error_s{0.0};
+  double delivery_latency_s{0.0};
+};
+
+// Draws each frame's timing from the camera's frame_drop_prob, timestamp_jitter_ms and
+// delivery_latency_ms / _std_ms, from a generator seeded by (seed, frame index): the same frame
+// always gets the same timing, whatever else the run draws. With every key 0 nothing is drawn
+// and every frame is delivered on time with an exact stamp.
+class FrameTimingModel {
+ public:
+  FrameTimingModel(const CameraParams& p, std::uint64_t seed);
+  FrameTiming at(int frame_index) const;
+
+ private:
+  double drop_prob_, jitter_s_, latency_s_, latency_std_s_;
+  std::uint64_t seed_;
+};
+
+// What the flight software received of the camera's frames over a run (summary.json's
+// camera_delivery): counts, the stamps' errors and the delivery latencies.
+class FrameDeliveryStats {
+ public:
+  void add(const FrameTiming& t);
+  long captured() const { return captured_; }
+  long dropped() const { return dropped_; }
+  long delivered() const { return captured_ - dropped_; }
+  double stamp_error_rms_s() const;
+  double stamp_error_max_abs_s() const { return stamp_max_abs_s_; }
+  double delivery_latency_mean_s() const;
+  double delivery_latency_max_s() const { return latency_max_s_; }
+
+ private:
+  long captured_{0}, dropped_{0};
+  double stamp_sq_sum_{0.0}, stamp_max_abs_s_{0.0}, latency_sum_s_{0.0}, latency_max_s_{0.0};
+};
 
 // One frame as the vehicle delivers it, plus the truth the simulator keeps beside it.
 struct CameraFrame {
