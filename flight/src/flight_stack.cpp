@@ -157,7 +157,7 @@ VisionResult FlightStack::vision_result(const RingDetection& det, double t_mid_s
 }
 
 Eigen::Vector2d FlightStack::predicted_blur_px(const ExposureInterval& exposure) const {
-  const double T = exposure.t_end_s - exposure.t_start_s;
+  const double T = exposure.row_exposure_s();
   const NavState nav = nav_state();
   if (!config_.estimator.vision.predict_blur || !nav.valid || !(T > 0.0)) return Eigen::Vector2d::Zero();
   const Eigen::Matrix3d R_BC = config_.mount.X_BC().linear();

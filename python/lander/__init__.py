@@ -63,7 +63,8 @@ class Sim:
     obs: {"t_s", "samples": {"imu": {"t_s", "gyro_B_radps", "accel_B_mps2"}, "baro", "gps",
     "ultrasonic", "magnetometer", "platform_telemetry", "rotor_commands"} as NumPy arrays of
     what the flight software was given since the last step, "frame": {"index", "t_start_s",
-    "t_end_s", "image"} or None}; the image is an H x W x 3 BGR uint8 array sharing the
+    "t_end_s", "readout_s", "image"} or None} (t_start_s: the first row's exposure start,
+    t_end_s: the last row's end; readout_s > 0 with camera.rolling_shutter_readout_ms); the image is an H x W x 3 BGR uint8 array sharing the
     simulator's pixels (no copy, read-only). info["truth"]: X_WB, X_WP, X_WC, X_CP (4x4), the
     vehicle's velocities, the cart's rates: never given to the flight software. When the run
     has ended, obs is None, done is True and info["summary"] is summary.json.

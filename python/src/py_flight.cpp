@@ -141,7 +141,7 @@ class PyFlightSoftware final : public flight::FlightSoftware {
     pyb::gil_scoped_acquire gil;
     pyb::object frame = pyb::module_::import("types").attr("SimpleNamespace")(
         "index"_a = f.index, "t_start_s"_a = f.exposure.t_start_s, "t_end_s"_a = f.exposure.t_end_s,
-        "stamp_s"_a = f.stamp_s, "image"_a = image_copy(f.image));
+        "readout_s"_a = f.exposure.readout_s, "stamp_s"_a = f.stamp_s, "image"_a = image_copy(f.image));
     return std::make_unique<PyFrameJob>(has(obj_, "begin_frame") ? call(obj_, info_.name, "begin_frame", frame) : pyb::none(),
                                         info_.name);
   }

@@ -387,6 +387,7 @@ class Sim {
       f["index"] = snap_.frame->index;
       f["t_start_s"] = snap_.frame->exposure.t_start_s;
       f["t_end_s"] = snap_.frame->exposure.t_end_s;
+      f["readout_s"] = snap_.frame->exposure.readout_s;
       f["image"] = image_array(snap_.frame->bgr);
       obs["frame"] = f;
     } else {

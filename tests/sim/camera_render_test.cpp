@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <algorithm>
+#include <iostream>
 #include <memory>
 #include <random>
 #include <cstring>
@@ -339,6 +341,88 @@ TEST_F(RenderFixture, TranslationDuringExposureSmearsAnEdgeByTheExpectedLength) 
   const double measured_px = blur_w / 0.8;
   EXPECT_NEAR(measured_px / expected_px, 1.0, kBlurLengthRelTol)
       << "measured " << measured_px << " px, expected " << expected_px << " px";
+}
+
+// Column (px) of the dark-to-bright edge in row `row` of `grey` within [u0, u1): the centroid
+// of the row's rise (grey[u + 1] - grey[u], at u + 0.5), which uses every grey level of the
+// ramp rather than the two pixels around its middle; -1 if the row does not rise.
+double row_edge_column(const cv::Mat& grey, int row, int u0, int u1) {
+  double weight = 0.0, moment = 0.0;
+  for (int u = u0; u + 1 < u1; ++u) {
+    const double rise = static_cast<double>(grey.at<std::uint8_t>(row, u + 1)) - grey.at<std::uint8_t>(row, u);
+    if (rise <= 0) continue;
+    weight += rise;
+    moment += rise * (u + 0.5);
+  }
+  return weight > 0 ? moment / weight : -1.0;
+}
+
+// A rolling shutter (issue 54) frame of a camera translating sideways over a straight edge:
+// each row shows the edge where the camera was at that row's own time. The frame is assembled
+// as the rig assembles it (exposure_renders' bands, CameraPipeline::add_rows) with the
+// physics step at 1 us, so that the render times are the rows' times. The edge's column in
+// each row is checked against the analytic projection at t0 + readout row / H + exposure / 2:
+// within kProjectionTolPx with fine bands (below); within that plus half of
+// rolling_shutter_px_per_band with the adaptive band count. A global shutter shows the edge
+// straight (within kProjectionTolPx of the mid-exposure projection in every row). The fine
+// frame takes 180 bands of 4 rows (a quarter of the renders of one band a row): a row is then
+// off its own time by at most 2 rows' readout, 0.026 px here (kFineBandPx).
+TEST_F(RenderFixture, RollingShutterShiftsEachRowToItsOwnTime) {
+  set_platform_texture([](double x, double) { return x < 0 ? 0.1 : 0.9; });
+  constexpr double kSpeed_mps = 2.0, kHeight_m = 3.0, kReadout_s = 0.03, kDt_s = 1e-6;
+  const Eigen::Isometry3d X_WP = world_->X_WP();
+  auto camera_at = [&](double t) { return camera_looking_at(X_WP, {kSpeed_mps * t, 0.0}, kHeight_m, 0.0, 0.0, 0.0); };
+  const CameraModel& cam = world_->camera();
+  // The edge (P x = 0) at time t: camera x is P x, so it is the column cx - fx v t / Z.
+  const double depth = kHeight_m;
+  auto analytic_column = [&](double t) { return cam.cx_px - cam.fx_px * kSpeed_mps * t / depth; };
+  auto frame_with = [&](const CameraParams& cp, int n_bands) {
+    CameraPipeline pipe(cp, 1);
+    const std::vector<ExposureRender> renders =
+        exposure_renders(cp, 0.0, kDt_s, pipe.render_size().height, cam.height_px, n_bands, 1);
+    pipe.begin(0.0, n_bands > 1 ? 1 : 0);
+    for (const ExposureRender& r : renders) {
+      place_camera(camera_at(r.t_s));
+      if (n_bands > 1) {
+        pipe.add_rows(render(), r.row0, r.row1);
+      } else {
+        pipe.add(render());
+      }
+    }
+    cv::Mat grey;
+    cv::cvtColor(pipe.finish(0, world_->X_WC()).bgr, grey, cv::COLOR_BGR2GRAY);
+    return grey;
+  };
+  CameraParams cp;
+  cp.rolling_shutter_readout_s = kReadout_s;
+  cp.rolling_shutter_max_bands = cam.height_px;
+  const double motion_px = cam.fx_px * kSpeed_mps * kReadout_s / depth;  // over the readout
+  const int adaptive = rolling_shutter_bands(cp, motion_px);
+  EXPECT_EQ(adaptive, static_cast<int>(std::ceil(motion_px / cp.rolling_shutter_px_per_band)));
+  constexpr int kFineBands = 180;
+  const double kFineBandPx = motion_px / (2.0 * kFineBands);
+  const cv::Mat per_row = frame_with(cp, kFineBands), banded = frame_with(cp, adaptive);
+  CameraParams global;
+  const cv::Mat straight = frame_with(global, 1);
+  const int u0 = static_cast<int>(cam.cx_px) - 40, u1 = static_cast<int>(cam.cx_px) + 40;
+  double worst_row = 0, worst_band = 0, worst_global = 0, spread = 0;
+  for (int v = 200; v <= 520; v += 20) {  // rows that see the platform at 3 m
+    const double expected = analytic_column(kReadout_s * v / cam.height_px + 0.5 * cp.exposure_s);
+    const double row_col = row_edge_column(per_row, v, u0, u1);
+    ASSERT_GE(row_col, 0.0) << "row " << v;
+    worst_row = std::max(worst_row, std::abs(row_col - expected));
+    worst_band = std::max(worst_band, std::abs(row_edge_column(banded, v, u0, u1) - expected));
+    const double g = row_edge_column(straight, v, u0, u1);
+    worst_global = std::max(worst_global, std::abs(g - analytic_column(0.5 * global.exposure_s)));
+    spread = std::max(spread, std::abs(row_col - g));
+  }
+  std::cout << "rolling shutter: worst row " << worst_row << " px (180 bands), " << worst_band << " px ("
+            << adaptive << " bands), global " << worst_global << " px; largest shift " << spread << " px\n";
+  EXPECT_LT(worst_row, kProjectionTolPx + kFineBandPx);
+  EXPECT_LT(worst_band, kProjectionTolPx + 0.5 * cp.rolling_shutter_px_per_band);
+  EXPECT_LT(worst_global, kProjectionTolPx);
+  // The shift over rows 200-520 is fx v readout (320 / 720) / Z = 5.7 px: it is there.
+  EXPECT_GT(spread, 5.0);
 }
 
 TEST(MujocoHandlers, AWarningThrowsInsteadOfPrinting) {

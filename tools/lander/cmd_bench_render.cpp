@@ -185,6 +185,15 @@ struct BlurCondition {
   double cart_mps;
 };
 
+// The flight conditions of the adaptive blur's and the rolling shutter's figures: hover, an
+// observe's follow, full speed at 5 m and at 2 m.
+std::vector<BlurCondition> motion_conditions() {
+  return {{"hover_5m", 5.0, {0.05, 0.0, 0.0}, {0.0, 0.0, 0.02}, 0.0},
+          {"follow_5m", 5.0, {0.5, 0.0, -0.3}, {0.05, 0.05, 0.1}, 0.5},
+          {"full_speed_5m", 5.0, {3.0, 0.5, -0.5}, {0.3, 0.3, 0.5}, 1.5},
+          {"full_speed_2m", 2.0, {1.5, 0.0, -0.5}, {0.3, 0.3, 0.5}, 1.5}};
+}
+
 // The state of view i at time tau into the exposure: constant velocities from the start pose.
 void place_in_condition(Bench& b, const BlurCondition& c, int i, double tau) {
   const double yaw0 = 0.7 * i;
@@ -276,11 +285,7 @@ json adaptive_condition(Bench& b, sim::CameraPipeline& pipe, const sim::CameraPa
 // and at speed, with motion_blur.yaml's 20 ms exposure: renders per frame, cost, and how far
 // the frame is from the reference (grey levels).
 json adaptive_blur(Bench& b, int frames) {
-  const std::vector<BlurCondition> conds = {
-      {"hover_5m", 5.0, {0.05, 0.0, 0.0}, {0.0, 0.0, 0.02}, 0.0},
-      {"follow_5m", 5.0, {0.5, 0.0, -0.3}, {0.05, 0.05, 0.1}, 0.5},
-      {"full_speed_5m", 5.0, {3.0, 0.5, -0.5}, {0.3, 0.3, 0.5}, 1.5},
-      {"full_speed_2m", 2.0, {1.5, 0.0, -0.5}, {0.3, 0.3, 0.5}, 1.5}};
+  const std::vector<BlurCondition> conds = motion_conditions();
   sim::CameraParams ap = b.s.camera;
   ap.exposure_s = 0.02;
   ap.blur_samples = 64;
@@ -289,6 +294,79 @@ json adaptive_blur(Bench& b, int frames) {
   json adaptive = json::array();
   for (const BlurCondition& c : conds) adaptive.push_back(adaptive_condition(b, pipe, ap, c, frames));
   return adaptive;
+}
+
+// View i of condition c with a rolling shutter (rp), assembled from `bands` bands as the
+// camera rig does (one render per distinct render time); its cost in ms.
+cv::Mat rolling(Bench& b, sim::CameraPipeline& pipe, const sim::CameraParams& rp, const BlurCondition& c, int i,
+                int bands, double* cost_ms) {
+  cv::Mat img;
+  const auto t0 = Clock::now();
+  const std::vector<sim::ExposureRender> renders =
+      sim::exposure_renders(rp, 0.0, 1e-4, pipe.render_size().height, rp.intrinsics.height_px, bands, 1);
+  pipe.begin(0.0, bands > 1 ? 1 : 0);
+  double rendered_t = -1.0;
+  for (const sim::ExposureRender& r : renders) {
+    if (r.t_s != rendered_t) {
+      place_in_condition(b, c, i, r.t_s);
+      b.render(img);
+      rendered_t = r.t_s;
+    }
+    if (bands > 1) {
+      pipe.add_rows(img, r.row0, r.row1);
+    } else {
+      pipe.add(img);
+    }
+  }
+  cv::Mat out = pipe.finish(i, b.world.X_WC()).bgr;
+  if (cost_ms) *cost_ms = ms_since(t0);
+  return out;
+}
+
+// Rolling shutter (camera.rolling_shutter_readout_ms 30, the seed's CMOS camera as issue 54
+// gives it) in the adaptive blur's conditions: bands per frame from the image motion over the
+// readout, the cost per frame, and how far the frame is from one assembled from 180 bands
+// (4 rows each: the reference) and from the global-shutter frame (what the shutter changes).
+json rolling_shutter(Bench& b, int frames) {
+  const std::vector<BlurCondition> conds = motion_conditions();
+  sim::CameraParams rp = b.s.camera;
+  rp.rolling_shutter_readout_s = 0.030;
+  rp.exposure_s = 0.002;  // the scenario's may be a blurred one; readout + exposure < period
+  rp.blur_samples = 1;
+  constexpr int kReferenceBands = 180;
+  sim::CameraPipeline pipe(rp, 1);
+  json out = json::array();
+  for (const BlurCondition& c : conds) {
+    std::vector<double> bands_used, ms, diff_ref_p999, diff_ref_max, diff_global_p999;
+    for (int i = 0; i < frames; ++i) {
+      place_in_condition(b, c, i, 0.0);
+      const double motion = sim::image_motion_px(rp.intrinsics, sim::exposure_motion(b.world, rp.intrinsics),
+                                                 rp.rolling_shutter_readout_s);
+      const int bands = sim::rolling_shutter_bands(rp, motion);
+      double cost = 0;
+      const cv::Mat frame = rolling(b, pipe, rp, c, i, bands, &cost);
+      const cv::Mat ref = rolling(b, pipe, rp, c, i, kReferenceBands, nullptr);
+      const cv::Mat global = rolling(b, pipe, rp, c, i, 1, nullptr);
+      bands_used.push_back(bands);
+      ms.push_back(cost);
+      const FrameDiff dr = compare(frame, ref), dg = compare(global, ref);
+      diff_ref_p999.push_back(dr.p999);
+      diff_ref_max.push_back(dr.max);
+      diff_global_p999.push_back(dg.p999);
+    }
+    out.push_back({{"condition", c.name},
+                   {"bands_mean", sim::summarize(bands_used).mean},
+                   {"bands_max", sim::summarize(bands_used).max},
+                   {"ms_per_frame_mean", sim::summarize(ms).mean},
+                   {"ms_per_frame_max", sim::summarize(ms).max},
+                   {"diff_to_180_bands_p999_dn_max", sim::summarize(diff_ref_p999).max},
+                   {"diff_to_180_bands_max_dn", sim::summarize(diff_ref_max).max},
+                   {"global_shutter_diff_to_180_bands_p999_dn_max", sim::summarize(diff_global_p999).max}});
+  }
+  return {{"readout_ms", 1e3 * rp.rolling_shutter_readout_s},
+          {"px_per_band", rp.rolling_shutter_px_per_band},
+          {"max_bands", rp.rolling_shutter_max_bands},
+          {"conditions", out}};
 }
 
 // The timings of the plain, variant and bare renders (ms per frame) with the plain renders'
@@ -366,6 +444,7 @@ int bench_render(const Args& args) {
   const json adaptive = adaptive_blur(b, static_cast<int>(a.integer("blur-frames", 8, 1)));
   json j = report(b, t, blur, distortion, noise_ms, adaptive);
   j["jpeg"] = time_jpeg(b, img);
+  j["rolling_shutter"] = rolling_shutter(b, static_cast<int>(a.integer("blur-frames", 8, 1)));
   sim::write_json_file(a.value("json"), j);
   std::cout << sim::json_text(j);
   // Which GL device rendered these figures (a hardware EGL device, when one is present, is

@@ -29,6 +29,36 @@ std::vector<double> exposure_sample_times(const CameraParams& p, double t_start_
   return t;
 }
 
+std::vector<ExposureRender> exposure_renders(const CameraParams& p, double t_start_s, double physics_dt_s,
+                                             int render_rows, int image_rows, int n_bands, int n_blur) {
+  std::vector<ExposureRender> out;
+  if (n_bands <= 1) {
+    for (double t : exposure_sample_times(p, t_start_s, physics_dt_s, n_blur)) out.push_back({t, 0, render_rows});
+    return out;
+  }
+  // The image's rows sit centred in the render's (a distorted camera's larger pinhole view);
+  // render rows above or below them take the first or last image row's time.
+  const double offset = 0.5 * (render_rows - image_rows);
+  for (int b = 0; b < n_bands; ++b) {
+    const int row0 = static_cast<int>(static_cast<long>(render_rows) * b / n_bands);
+    const int row1 = static_cast<int>(static_cast<long>(render_rows) * (b + 1) / n_bands);
+    if (row1 <= row0) continue;
+    const double centre_row = std::clamp(0.5 * (row0 + row1 - 1) - offset, 0.0, image_rows - 1.0);
+    const double t_band = t_start_s + p.rolling_shutter_readout_s * centre_row / image_rows;
+    for (double t : exposure_sample_times(p, t_band, physics_dt_s, n_blur)) out.push_back({t, row0, row1});
+  }
+  std::stable_sort(out.begin(), out.end(),
+                   [](const ExposureRender& a, const ExposureRender& b) { return a.t_s < b.t_s; });
+  return out;
+}
+
+int rolling_shutter_bands(const CameraParams& p, double motion_px) {
+  if (p.rolling_shutter_readout_s <= 0) return 1;
+  const double n = std::ceil(motion_px / p.rolling_shutter_px_per_band);
+  if (!(n >= 1)) return 1;  // also NaN
+  return static_cast<int>(std::min<double>(n, p.rolling_shutter_max_bands));
+}
+
 double image_motion_px(const CameraModel& cam, const ExposureMotion& m, double exposure_s) {
   // The camera's pose at the exposure's end: rotated by w T about its centre, moved by v T.
   const double T = exposure_s;
@@ -186,10 +216,28 @@ CameraPipeline::CameraPipeline(const CameraParams& params, std::uint64_t seed)
   }
 }
 
-void CameraPipeline::begin(double t_start_s) {
+void CameraPipeline::begin(double t_start_s, int renders_per_row) {
   t_start_ = t_start_s;
   count_ = 0;
+  renders_per_row_ = renders_per_row;
   accum_.release();
+  if (renders_per_row_ == 1) {
+    first_.create(render_size_, CV_8UC3);
+  } else if (renders_per_row_ > 1) {
+    accum_ = cv::Mat::zeros(render_size_, CV_32FC3);
+  }
+}
+
+void CameraPipeline::add_rows(const cv::Mat& render_bgr, int row0, int row1) {
+  if (renders_per_row_ <= 0) throw std::logic_error("CameraPipeline::add_rows without begin(t, renders_per_row)");
+  const cv::Range rows(row0, row1);
+  if (renders_per_row_ == 1) {
+    render_bgr.rowRange(rows).copyTo(first_.rowRange(rows));  // one render a row: stays 8-bit
+  } else {
+    cv::Mat band = accum_.rowRange(rows);
+    cv::accumulate(render_bgr.rowRange(rows), band);
+  }
+  count_ = renders_per_row_;  // what each row gets once the bands are complete
 }
 
 void CameraPipeline::add(const cv::Mat& render_bgr) {
@@ -228,7 +276,8 @@ CameraFrame CameraPipeline::averaged(int index, const Eigen::Isometry3d& X_WC_mi
   CameraFrame f;
   f.index = index;
   f.exposure.t_start_s = t_start_;
-  f.exposure.t_end_s = t_start_ + params_.exposure_s;
+  f.exposure.t_end_s = t_start_ + params_.exposure_s + params_.rolling_shutter_readout_s;
+  f.exposure.readout_s = params_.rolling_shutter_readout_s;
   f.X_WC_true = X_WC_mid;
   if (count_ == 1 && !needs_remap_ && params_.read_noise_dn <= 0 && params_.gain == 1.0) {
     f.bgr = first_.clone();  // plain frame: the render itself
@@ -321,36 +370,59 @@ CameraRig::CameraRig(const CameraParams& params, std::uint64_t seed, double phys
 std::optional<CameraFrame> CameraRig::advance(double t_s, World& world, Renderer& renderer,
                                               double* render_ms) {
   const CameraParams& p = pipeline_.params();
-  if (!exposing_ && t_s + 1e-9 >= next_frame_t_) {
-    exposing_ = true;
-    pipeline_.begin(t_s);
-    const int n = p.adaptive_blur()
-                      ? blur_renders(p, image_motion_px(p.intrinsics, exposure_motion(world, p.intrinsics), p.exposure_s))
-                      : p.blur_samples;
-    sample_times_ = exposure_sample_times(p, t_s, dt_, n);
-    next_sample_ = 0;
-  }
+  if (!exposing_ && t_s + 1e-9 >= next_frame_t_) begin_exposure(t_s, world);
   if (!exposing_) return std::nullopt;
-  while (next_sample_ < sample_times_.size() && sample_times_[next_sample_] <= t_s + 1e-9) {
-    const auto t0 = std::chrono::steady_clock::now();
-    renderer.render_camera(world.model(), world.data(), world.camera_id(),
-                           pipeline_.render_size().width, pipeline_.render_size().height, render_);
-    pipeline_.add(render_);
-    ++renders_;
-    if (render_ms) {
-      *render_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  // The renders that fall now; one render serves every band due at the same physics state.
+  bool rendered_now = false;
+  while (next_sample_ < sample_times_.size() && sample_times_[next_sample_].t_s <= t_s + 1e-9) {
+    const ExposureRender& r = sample_times_[next_sample_];
+    if (!rendered_now) {
+      const auto t0 = std::chrono::steady_clock::now();
+      renderer.render_camera(world.model(), world.data(), world.camera_id(), pipeline_.render_size().width,
+                             pipeline_.render_size().height, render_);
+      ++renders_;
+      ++frame_renders_;
+      if (render_ms) {
+        *render_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      }
+      rendered_now = banded_;
+    }
+    if (banded_) {
+      pipeline_.add_rows(render_, r.row0, r.row1);
+    } else {
+      pipeline_.add(render_);
     }
     ++next_sample_;
   }
-  if (next_sample_ < sample_times_.size() || t_s + 1e-9 < next_frame_t_ + p.exposure_s) {
+  if (next_sample_ < sample_times_.size() ||
+      t_s + 1e-9 < next_frame_t_ + p.exposure_s + p.rolling_shutter_readout_s) {
     return std::nullopt;
   }
   CameraFrame frame = pipeline_.finish(frame_index_, world.X_WC());
-  frame.renders = static_cast<int>(sample_times_.size());
+  frame.renders = frame_renders_;
   exposing_ = false;
   ++frame_index_;
   next_frame_t_ += period_;
   return frame;
+}
+
+// A new exposure at t_s: the blur's renders from the image motion over the exposure, the
+// rolling shutter's bands from the motion over the readout (the camera's motion now).
+void CameraRig::begin_exposure(double t_s, const World& world) {
+  const CameraParams& p = pipeline_.params();
+  exposing_ = true;
+  const bool rolling = p.rolling_shutter_readout_s > 0;
+  const ExposureMotion motion = p.adaptive_blur() || rolling ? exposure_motion(world, p.intrinsics) : ExposureMotion{};
+  const int n_blur = p.adaptive_blur() ? blur_renders(p, image_motion_px(p.intrinsics, motion, p.exposure_s))
+                                       : p.blur_samples;
+  const int n_bands =
+      rolling ? rolling_shutter_bands(p, image_motion_px(p.intrinsics, motion, p.rolling_shutter_readout_s)) : 1;
+  banded_ = n_bands > 1;
+  frame_renders_ = 0;
+  pipeline_.begin(t_s, banded_ ? n_blur : 0);
+  sample_times_ = exposure_renders(p, t_s, dt_, pipeline_.render_size().height, p.intrinsics.height_px, n_bands,
+                                   n_blur);
+  next_sample_ = 0;
 }
 
 }  // namespace lander::sim

@@ -79,10 +79,15 @@ void visit_fields(V& v, CameraMount& p) {
 
 // One camera frame as the vehicle delivers it: BGR 8-bit image plus its exposure interval.
 // (The cv::Mat lives in the estimator's vision headers; here only the timing.)
+// A frame's exposure: from the first row's start to the last row's end. With a rolling
+// shutter (readout_s > 0) row v of H is exposed over [t_start + readout v / H, ... + the row's
+// exposure]; mid() is then the middle row's mid-exposure, row_exposure_s() each row's own.
 struct ExposureInterval {
-  double t_start_s{0.0};  ///< exposure start (s, sim time)
-  double t_end_s{0.0};    ///< exposure end (s, sim time)
+  double t_start_s{0.0};  ///< exposure start of the first row (s, sim time)
+  double t_end_s{0.0};    ///< exposure end of the last row (s, sim time)
+  double readout_s{0.0};  ///< first row's start to the last row's start (0 = global shutter)
   double mid() const { return 0.5 * (t_start_s + t_end_s); }
+  double row_exposure_s() const { return t_end_s - t_start_s - readout_s; }
 };
 
 // IMU sample: body rates and specific force (accelerometer reading, includes -g), in B.

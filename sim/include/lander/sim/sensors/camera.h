@@ -51,6 +51,13 @@ struct CameraParams {
                                  ///< through OpenCV, 4:2:0 chroma as a UVC camera sends), each
                                  ///< encoded and decoded before the flight software sees it;
                                  ///< 0 = lossless frames (seed 000's camera sent JPG: Table 2)
+  // Rolling shutter (issue 54): row v of H starts its exposure readout v / H after row 0. The
+  // frame is assembled from bands of rows, each rendered at its own time; the band count
+  // follows the image motion over the readout (one band per rolling_shutter_px_per_band
+  // pixels, at most rolling_shutter_max_bands). 0 = global shutter (the frames of before).
+  double rolling_shutter_readout_s{0.0};  ///< YAML rolling_shutter_readout_ms
+  double rolling_shutter_px_per_band{1.0};///< a row's position is off by at most half this (px)
+  int rolling_shutter_max_bands{16};      ///< most bands (renders per blur sample) a frame takes
   // Frame timing of a USB camera on a busy computer (issue 54): drops, stamp jitter and a
   // delivery latency that varies; all 0 = every frame delivered, stamped at its exposure end.
   double frame_drop_prob{0.0};   ///< probability that a frame never reaches the flight
@@ -80,6 +87,8 @@ struct CameraParams {
             "intrinsics.height_px", sides);
     require(exposure_s >= 0 && exposure_s < 1.0 / rate_hz, "exposure_ms",
             "must be >= 0 and shorter than the frame period");
+    require(exposure_s + rolling_shutter_readout_s < 1.0 / rate_hz, "rolling_shutter_readout_ms",
+            "the readout plus the exposure must be shorter than the frame period");
     require(blur_px_per_render == 0 || (blur_px_per_render >= 0.1 && blur_px_per_render <= 100),
             "blur_px_per_render", "must be 0 (fixed count) or in [0.1, 100] px");
   }
@@ -102,6 +111,12 @@ void visit_fields(V& v, CameraParams& p) {
   v("mount_offset_m", p.mount_offset_m, range::any, "m", "true mount position off the nominal one");
   v("jpeg_quality", p.jpeg_quality, range::closed(0, 100), "",
     "frames delivered as JPEG at this quality (1-100, 4:2:0 chroma); 0 = lossless");
+  v("rolling_shutter_readout_ms", p.rolling_shutter_readout_s, range::closed(0, 100), "ms",
+    "rolling shutter: first row's start to the last row's start; 0 = global shutter", 1e-3);
+  v("rolling_shutter_px_per_band", p.rolling_shutter_px_per_band, range::closed(0.05, 100), "px",
+    "one band of rows per this much image motion over the readout");
+  v("rolling_shutter_max_bands", p.rolling_shutter_max_bands, range::closed(1, 720), "",
+    "most bands of rows a frame is assembled from");
   v("frame_drop_prob", p.frame_drop_prob, range::closed(0, 0.9), "probability",
     "probability that a frame never reaches the flight software");
   v("timestamp_jitter_ms", p.timestamp_jitter_s, range::closed(0, 100), "ms",
@@ -179,6 +194,25 @@ struct ExposureMotion {
   Eigen::Vector3d v_W{Eigen::Vector3d::Zero()}, w_W{Eigen::Vector3d::Zero()};
   std::vector<Eigen::Vector3d> points_W, point_velocities_W;
 };
+// One render of a frame's exposure: its (physics) time and the band of pinhole-render rows
+// [row0, row1) it contributes to.
+struct ExposureRender {
+  double t_s{0.0};
+  int row0{0}, row1{0};
+};
+// The renders of one exposure starting at t_start_s with a rolling shutter of n_bands bands
+// of the render's rows (render_rows, the image's image_rows centred in it) and n_blur renders
+// per band: band b's rows start readout x (its centre row) / image_rows after t_start, its
+// renders spread over the exposure from there (exposure_sample_times), snapped to the physics
+// step; in time order (bands in row order at equal times). One band: exposure_sample_times'
+// renders over every row.
+std::vector<ExposureRender> exposure_renders(const CameraParams& p, double t_start_s, double physics_dt_s,
+                                             int render_rows, int image_rows, int n_bands, int n_blur);
+// Bands for a rolling shutter whose readout sees `motion_px` of image motion: one per
+// rolling_shutter_px_per_band pixels, at least 1, at most rolling_shutter_max_bands; 1 without
+// a rolling shutter.
+int rolling_shutter_bands(const CameraParams& p, double motion_px);
+
 // Largest displacement (px) over `exposure_s` of the points that are in front of the camera
 // and inside the image (with a margin of a tenth of its size) at the exposure's start or end,
 // with the camera's pinhole projection (fx, fy, cx, cy). 0 when none is.
@@ -203,8 +237,11 @@ class CameraPipeline {
  public:
   CameraPipeline(const CameraParams& params, std::uint64_t seed);
 
-  void begin(double t_start_s);        // start a new exposure
+  // Start a new exposure; with bands, each row is to get renders_per_row renders (add_rows).
+  void begin(double t_start_s, int renders_per_row = 0);
   void add(const cv::Mat& render_bgr); // one sub-render (pinhole, render_size())
+  // One render's rows [row0, row1) (rolling shutter): every row must get renders_per_row.
+  void add_rows(const cv::Mat& render_bgr, int row0, int row1);
   // Averages the sub-renders and finishes the frame. Throws if no render was added.
   CameraFrame finish(int index, const Eigen::Isometry3d& X_WC_mid);
   // Bytes of the last frame's JPEG (0 without jpeg_quality).
@@ -222,6 +259,7 @@ class CameraPipeline {
   cv::Mat map_x_, map_y_;
   cv::Mat first_, accum_;
   int count_ = 0;
+  int renders_per_row_ = 0;  // bands (add_rows): the renders each row gets; 0 = whole frames
   double t_start_ = 0.0;
   std::size_t last_jpeg_bytes_ = 0;
   // The frame's pixels as delivered: through JPEG when jpeg_quality is set.
@@ -243,12 +281,15 @@ class CameraRig {
   int frames() const { return frame_index_; }
 
  private:
+  void begin_exposure(double t_s, const World& world);
   CameraPipeline pipeline_;
   double dt_, period_;
   int frame_index_ = 0;
   double next_frame_t_ = 0.0;
   bool exposing_ = false;
-  std::vector<double> sample_times_;
+  std::vector<ExposureRender> sample_times_;
+  bool banded_ = false;      // this frame is assembled from bands (rolling shutter)
+  int frame_renders_ = 0;    // renders of the frame being exposed
   std::size_t next_sample_ = 0;
   long renders_ = 0;
 
