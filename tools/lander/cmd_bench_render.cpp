@@ -297,7 +297,7 @@ json adaptive_blur(Bench& b, int frames) {
 }
 
 // View i of condition c with a rolling shutter (rp), assembled from `bands` bands as the
-// camera rig does (one render per distinct render time); its cost in ms.
+// camera rig does (each band drawn alone, Renderer::render_camera_rows); its cost in ms.
 cv::Mat rolling(Bench& b, sim::CameraPipeline& pipe, const sim::CameraParams& rp, const BlurCondition& c, int i,
                 int bands, double* cost_ms) {
   cv::Mat img;
@@ -305,16 +305,14 @@ cv::Mat rolling(Bench& b, sim::CameraPipeline& pipe, const sim::CameraParams& rp
   const std::vector<sim::ExposureRender> renders =
       sim::exposure_renders(rp, 0.0, 1e-4, pipe.render_size().height, rp.intrinsics.height_px, bands, 1);
   pipe.begin(0.0, bands > 1 ? 1 : 0);
-  double rendered_t = -1.0;
   for (const sim::ExposureRender& r : renders) {
-    if (r.t_s != rendered_t) {
-      place_in_condition(b, c, i, r.t_s);
-      b.render(img);
-      rendered_t = r.t_s;
-    }
+    place_in_condition(b, c, i, r.t_s);
     if (bands > 1) {
+      b.renderer.render_camera_rows(b.world.model(), b.world.data(), b.world.camera_id(), b.W, b.H, r.row0, r.row1,
+                                    img);
       pipe.add_rows(img, r.row0, r.row1);
     } else {
+      b.render(img);
       pipe.add(img);
     }
   }

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <stdexcept>
+#include <string>
 
 #include <Eigen/Core>
 #include <opencv2/imgproc.hpp>
@@ -123,6 +125,20 @@ void Renderer::render_camera(const mjModel* m, mjData* d, int cam_id, int width,
   render(m, d, cam, width, height, bgr, m->cam_bodyid[cam_id]);
 }
 
+void Renderer::render_camera_rows(const mjModel* m, mjData* d, int cam_id, int width, int height, int row0,
+                                  int row1, cv::Mat& bgr) {
+  if (row0 < 0 || row1 > height || row1 <= row0) {
+    throw std::invalid_argument("render_camera_rows: rows [" + std::to_string(row0) + ", " + std::to_string(row1) +
+                                ") outside the image's " + std::to_string(height));
+  }
+  option_.geomgroup[kChaseOnlyGroup] = 0;
+  mjvCamera cam;
+  mjv_defaultCamera(&cam);
+  cam.type = mjCAMERA_FIXED;
+  cam.fixedcamid = cam_id;
+  render(m, d, cam, width, height, bgr, m->cam_bodyid[cam_id], row0, row1);
+}
+
 void Renderer::render_free(const mjModel* m, mjData* d, const mjvCamera& cam, int width,
                            int height, cv::Mat& bgr) {
   option_.geomgroup[kChaseOnlyGroup] = 1;
@@ -131,7 +147,9 @@ void Renderer::render_free(const mjModel* m, mjData* d, const mjvCamera& cam, in
 }
 
 void Renderer::render(const mjModel* m, mjData* d, mjvCamera& cam, int width, int height,
-                      cv::Mat& bgr, int exclude_body) {
+                      cv::Mat& bgr, int exclude_body, int row0, int row1) {
+  const bool band = row1 >= 0;
+  if (!band) row1 = height;
   if (width > context_.offWidth || height > context_.offHeight) {
     throw GlError("render size " + std::to_string(width) + "x" + std::to_string(height) +
                   " exceeds the offscreen buffer " + std::to_string(context_.offWidth) + "x" +
@@ -141,23 +159,32 @@ void Renderer::render(const mjModel* m, mjData* d, mjvCamera& cam, int width, in
   auto ms = [](Clock::time_point a, Clock::time_point b) {
     return std::chrono::duration<double, std::milli>(b - a).count();
   };
-  const mjrRect viewport = {0, 0, width, height};
+  const int rows = row1 - row0;
+  const mjrRect viewport = {0, 0, width, rows};
   const auto t0 = Clock::now();
   mjv_updateScene(m, d, &option_, nullptr, &cam, mjCAT_ALL, &scene_);
   if (scene_.flags[mjRND_SHADOW]) aim_shadow_maps(m, d, exclude_body, scene_, context_);
+  if (band) {
+    // The frustum's vertical extent cut to the band (image row 0 at the top); its horizontal
+    // extent follows the viewport's aspect, width / rows, and so stays the full image's.
+    for (mjvGLCamera& c : scene_.camera) {
+      const float top = c.frustum_top, span = c.frustum_top - c.frustum_bottom;
+      c.frustum_top = top - span * static_cast<float>(row0) / static_cast<float>(height);
+      c.frustum_bottom = top - span * static_cast<float>(row1) / static_cast<float>(height);
+    }
+  }
   const auto t1 = Clock::now();
   mjr_render(viewport, &scene_, &context_);
   mjr_finish();  // the read-back waits for the drawing anyway; this only splits the timing
   const auto t2 = Clock::now();
-  rgb_.resize(static_cast<std::size_t>(width) * height * 3);
+  rgb_.resize(static_cast<std::size_t>(width) * rows * 3);
   mjr_readPixels(rgb_.data(), nullptr, viewport, &context_);
   const auto t3 = Clock::now();
   // OpenGL rows run bottom-up: one pass flips rows and swaps RGB -> BGR.
-  bgr.create(height, width, CV_8UC3);
-  for (int r = 0; r < height; ++r) {
-    const cv::Mat src(1, width, CV_8UC3, rgb_.data() + static_cast<std::size_t>(height - 1 - r) *
-                                                          width * 3);
-    cv::Mat dst = bgr.row(r);
+  if (bgr.rows != height || bgr.cols != width || bgr.type() != CV_8UC3) bgr.create(height, width, CV_8UC3);
+  for (int r = 0; r < rows; ++r) {
+    const cv::Mat src(1, width, CV_8UC3, rgb_.data() + static_cast<std::size_t>(rows - 1 - r) * width * 3);
+    cv::Mat dst = bgr.row(row0 + r);
     cv::cvtColor(src, dst, cv::COLOR_RGB2BGR);
   }
   const auto t4 = Clock::now();

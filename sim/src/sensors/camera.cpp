@@ -372,25 +372,23 @@ std::optional<CameraFrame> CameraRig::advance(double t_s, World& world, Renderer
   const CameraParams& p = pipeline_.params();
   if (!exposing_ && t_s + 1e-9 >= next_frame_t_) begin_exposure(t_s, world);
   if (!exposing_) return std::nullopt;
-  // The renders that fall now; one render serves every band due at the same physics state.
-  bool rendered_now = false;
+  // The renders that fall now: the whole frame, or (rolling shutter) only its band's rows.
   while (next_sample_ < sample_times_.size() && sample_times_[next_sample_].t_s <= t_s + 1e-9) {
     const ExposureRender& r = sample_times_[next_sample_];
-    if (!rendered_now) {
-      const auto t0 = std::chrono::steady_clock::now();
-      renderer.render_camera(world.model(), world.data(), world.camera_id(), pipeline_.render_size().width,
-                             pipeline_.render_size().height, render_);
-      ++renders_;
-      ++frame_renders_;
-      if (render_ms) {
-        *render_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-      }
-      rendered_now = banded_;
-    }
+    const cv::Size rs = pipeline_.render_size();
+    const auto t0 = std::chrono::steady_clock::now();
     if (banded_) {
+      renderer.render_camera_rows(world.model(), world.data(), world.camera_id(), rs.width, rs.height, r.row0, r.row1,
+                                  render_);
       pipeline_.add_rows(render_, r.row0, r.row1);
     } else {
+      renderer.render_camera(world.model(), world.data(), world.camera_id(), rs.width, rs.height, render_);
       pipeline_.add(render_);
+    }
+    ++renders_;
+    ++frame_renders_;
+    if (render_ms) {
+      *render_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     }
     ++next_sample_;
   }

@@ -55,6 +55,12 @@ class Renderer {
   // offwidth/offheight.
   void render_camera(const mjModel* m, mjData* d, int cam_id, int width, int height,
                      cv::Mat& bgr);
+  // Only rows [row0, row1) of that render (a rolling shutter's band): the camera's frustum cut
+  // to those rows and drawn into a width x (row1 - row0) viewport, so that the drawing and the
+  // read-back cost the band's area; the other rows of `bgr` (allocated height x width if it is
+  // not) are left as they are.
+  void render_camera_rows(const mjModel* m, mjData* d, int cam_id, int width, int height, int row0, int row1,
+                          cv::Mat& bgr);
   // Same for a free (tracking) camera, e.g. the chase view.
   void render_free(const mjModel* m, mjData* d, const mjvCamera& cam, int width, int height,
                    cv::Mat& bgr);
@@ -83,7 +89,7 @@ class Renderer {
   // exclude_body: the body carrying the camera (its own geoms are not the surface it looks
   // at, for the shadow map's extent), -1 for a free camera.
   void render(const mjModel* m, mjData* d, mjvCamera& cam, int width, int height, cv::Mat& bgr,
-              int exclude_body);
+              int exclude_body, int row0 = 0, int row1 = -1);
   // Creates MuJoCo's GL context (uploads every texture) with the configured MSAA.
   void make_context(const mjModel* m);
 
