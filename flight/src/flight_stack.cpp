@@ -1,5 +1,6 @@
 #include "lander/flight/flight_stack.h"
 
+#include <algorithm>
 #include <cmath>
 #include <utility>
 
@@ -43,6 +44,7 @@ void RingFrameJob::process() {
     const RingDetection det = stack_.detect(bgr, blur_px_);
     const double cpu_ms = thread_cpu_ms() - c0, wall_ms = ms_since(t0);
     vr_ = stack_.vision_result(det, t_mid);
+    vr_.obs.t_s = stack_.observation_time(frame_.exposure, vr_.obs, frame_.image.height_px);
     report_ = detection_report(det, stack_.mount().X_BC());
     report_.detector_ms = wall_ms;
     report_.detector_cpu_ms = cpu_ms;
@@ -154,6 +156,17 @@ VisionResult FlightStack::vision_result(const RingDetection& det, double t_mid_s
   vr.obs = to_platform_observation(det, t_mid_s);
   if (det.detected && det.keyframe) vr.h_plane_m = height_above_target_m(det.X_CP, config_.mount.X_BC());
   return vr;
+}
+
+double FlightStack::observation_time(const ExposureInterval& e, const PlatformObservation& obs, int image_rows) const {
+  const Eigen::Vector3d p_C = obs.X_CP.translation();
+  if (!config_.estimator.vision.rolling_shutter_row_time || !(e.readout_s > 0) || !obs.detected || image_rows <= 0 ||
+      !p_C.allFinite() || !(p_C.z() > 0)) {
+    return e.mid();
+  }
+  const double row = config_.camera.fy_px * p_C.y() / p_C.z() + config_.camera.cy_px;
+  const double fraction = std::clamp(row / image_rows, 0.0, 1.0);
+  return e.t_start_s + e.readout_s * fraction + 0.5 * e.row_exposure_s();
 }
 
 Eigen::Vector2d FlightStack::predicted_blur_px(const ExposureInterval& exposure) const {

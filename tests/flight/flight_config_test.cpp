@@ -118,6 +118,37 @@ TEST(FlightStack, KeepsItsConfiguration) {
   EXPECT_FALSE(fs.nav_state().valid);
 }
 
+// With estimator.vision.rolling_shutter_row_time a pose in a rolling-shutter frame is stamped
+// at the mid-exposure of the row its platform centre projects to (the flight software's own
+// camera model): a centre three quarters down the image was read 3/4 of the readout after the
+// first row. Off, or with a global shutter, or without a pose: the middle row's (mid()).
+TEST(FlightStack, RollingShutterPosesTakeTheirRowsTime) {
+  FlightConfig c;
+  c.estimator.vision.rolling_shutter_row_time = true;
+  const FlightStack fs(c);
+  const int rows = c.camera.height_px;
+  ExposureInterval e;
+  e.t_start_s = 1.0;
+  e.readout_s = 0.030;
+  e.t_end_s = 1.0 + 0.030 + 0.002;
+  PlatformObservation obs;
+  obs.detected = true;
+  const double z = 5.0, v = 0.75 * rows;
+  obs.X_CP = Eigen::Isometry3d::Identity();
+  obs.X_CP.translation() = Eigen::Vector3d(0.3, (v - c.camera.cy_px) * z / c.camera.fy_px, z);
+  EXPECT_NEAR(fs.observation_time(e, obs, rows), 1.0 + 0.75 * 0.030 + 0.001, 1e-12);
+  ExposureInterval global = e;
+  global.readout_s = 0.0;
+  global.t_end_s = 1.002;
+  EXPECT_EQ(fs.observation_time(global, obs, rows), global.mid());
+  PlatformObservation none = obs;
+  none.detected = false;
+  EXPECT_EQ(fs.observation_time(e, none, rows), e.mid());
+  FlightConfig off;
+  const FlightStack plain(off);
+  EXPECT_EQ(plain.observation_time(e, obs, rows), e.mid());
+}
+
 // Given a vehicle at rest 8 m up whose GPS reads 2 m (a degraded receiver's slowly varying
 // height error) and a barometer that reads true, when the stack has run 5 s, then with
 // navigation.height_from_altitude_fusion the controller's state carries the altitude fusion's

@@ -135,6 +135,11 @@ struct VisionParams {
                                        ///< right identities lead by 0.033 or more on the full
                                        ///< sweep's rendered views, turned ones trailed by 0.08
                                        ///< or more on exactly drawn yaw-smeared frames)
+  // ---- rolling shutter (issue 54) ----
+  bool rolling_shutter_row_time{false};  ///< with a rolling shutter (the frame's readout_s > 0),
+                                     ///< the flight stack stamps a pose at the mid-exposure of
+                                     ///< the image row of the platform's centre instead of the
+                                     ///< middle row's (up to half the readout earlier or later)
   // ---- blur (issue 12): the motion blur the caller predicts for the frame ----
   bool predict_blur{true};           ///< the flight stack predicts each frame's blur from its
                                      ///< own motion estimate and the exposure time and hands it
@@ -323,6 +328,8 @@ void visit_fallback_passes_fields(V& v, VisionParams& p) {
     "every pose: the outer sets' radial profiles in the frame must fit");
   v("rotation_check_margin", p.rotation_check_margin, range::closed_open(0, 1), "",
     "by at least this");
+  v("rolling_shutter_row_time", p.rolling_shutter_row_time, range::any, "",
+    "with a rolling shutter, a pose is stamped at its platform centre's row");
   v("predict_blur", p.predict_blur, range::any, "",
     "the flight stack predicts each frame's blur from its own motion");
   v("deblur_min_px", p.deblur_min_px, range::closed(0, 200), "px",

@@ -108,6 +108,11 @@ class FlightStack final : public FlightSoftware {
   PathObservation detect_path(const cv::Mat& bgr, double t_mid_s) const;
   // The result to deliver after the processing latency.
   VisionResult vision_result(const RingDetection& det, double t_mid_s) const;
+  // When a pose in a frame exposed over `e` was taken: the middle row's mid-exposure
+  // (e.mid()); with estimator.vision.rolling_shutter_row_time and a rolling shutter, the
+  // mid-exposure of the row where the flight software's camera model projects the platform's
+  // centre (of image_rows rows).
+  double observation_time(const ExposureInterval& e, const PlatformObservation& obs, int image_rows) const;
   // A vision result reaching the filters and the controller (deliver_frame's work; the
   // change indication delivers recorded ones).
   void on_vision(const VisionResult& vr);
