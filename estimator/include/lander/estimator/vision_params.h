@@ -136,7 +136,7 @@ struct VisionParams {
                                        ///< sweep's rendered views, turned ones trailed by 0.08
                                        ///< or more on exactly drawn yaw-smeared frames)
   // ---- rolling shutter (issue 54) ----
-  bool rolling_shutter_row_time{false};  ///< with a rolling shutter (the frame's readout_s > 0),
+  bool rolling_shutter_row_time{true};   ///< with a rolling shutter (the frame's readout_s > 0),
                                      ///< the flight stack stamps a pose at the mid-exposure of
                                      ///< the image row of the platform's centre instead of the
                                      ///< middle row's (up to half the readout earlier or later)
