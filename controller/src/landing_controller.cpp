@@ -25,7 +25,6 @@ std::optional<Eigen::Vector3d> broadcast_velocity(const modes::LandingContext& c
 
 }  // namespace
 
-
 double accel_feed_forward_share(double a_mps2, double deadband_mps2, double full_mps2) {
   if (!(a_mps2 > deadband_mps2)) return 0.0;
   if (a_mps2 >= full_mps2) return 1.0;

@@ -34,7 +34,6 @@ void RingFrameJob::process() {
   if (stack_.user_detector_) {
     Detection d = stack_.user_detector_->detect(frame_.image, frame_, blur_px_);
     vr_.obs = d.obs;
-    vr_.obs.t_s = t_mid;
     if (vr_.obs.detected && vr_.obs.keyframe) vr_.h_plane_m = height_above_target_m(vr_.obs.X_CP, stack_.mount().X_BC());
     report_ = std::move(d.report);
   } else {
@@ -44,11 +43,12 @@ void RingFrameJob::process() {
     const RingDetection det = stack_.detect(bgr, blur_px_);
     const double cpu_ms = thread_cpu_ms() - c0, wall_ms = ms_since(t0);
     vr_ = stack_.vision_result(det, t_mid);
-    vr_.obs.t_s = stack_.observation_time(frame_.exposure, vr_.obs, frame_.image.height_px);
     report_ = detection_report(det, stack_.mount().X_BC());
     report_.detector_ms = wall_ms;
     report_.detector_cpu_ms = cpu_ms;
   }
+  // Whichever detector found it, the pose's time is the flight stack's to say.
+  vr_.obs.t_s = stack_.observation_time(frame_.exposure, vr_.obs, frame_.image.height_px);
   if (run_path_) {
     const auto t1 = Clock::now();
     vr_.path = stack_.detect_path(as_mat(frame_.image), t_mid);

@@ -381,16 +381,10 @@ TEST_F(RenderFixture, RollingShutterShiftsEachRowToItsOwnTime) {
     const std::vector<ExposureRender> renders =
         exposure_renders(cp, 0.0, kDt_s, pipe.render_size().height, cam.height_px, n_bands, 1);
     pipe.begin(0.0, n_bands > 1 ? 1 : 0);
+    cv::Mat buf;
     for (const ExposureRender& r : renders) {
       place_camera(camera_at(r.t_s));
-      if (n_bands > 1) {
-        cv::Mat band;
-        renderer_->render_camera_rows(world_->model(), world_->data(), world_->camera_id(), pipe.render_size().width,
-                                      pipe.render_size().height, r.row0, r.row1, band);
-        pipe.add_rows(band, r.row0, r.row1);
-      } else {
-        pipe.add(render());
-      }
+      add_exposure_render(*renderer_, *world_, pipe, r, buf);
     }
     cv::Mat grey;
     cv::cvtColor(pipe.finish(0, world_->X_WC()).bgr, grey, cv::COLOR_BGR2GRAY);

@@ -297,7 +297,7 @@ json adaptive_blur(Bench& b, int frames) {
 }
 
 // View i of condition c with a rolling shutter (rp), assembled from `bands` bands as the
-// camera rig does (each band drawn alone, Renderer::render_camera_rows); its cost in ms.
+// camera rig does (sim::add_exposure_render); its cost in ms.
 cv::Mat rolling(Bench& b, sim::CameraPipeline& pipe, const sim::CameraParams& rp, const BlurCondition& c, int i,
                 int bands, double* cost_ms) {
   cv::Mat img;
@@ -307,14 +307,7 @@ cv::Mat rolling(Bench& b, sim::CameraPipeline& pipe, const sim::CameraParams& rp
   pipe.begin(0.0, bands > 1 ? 1 : 0);
   for (const sim::ExposureRender& r : renders) {
     place_in_condition(b, c, i, r.t_s);
-    if (bands > 1) {
-      b.renderer.render_camera_rows(b.world.model(), b.world.data(), b.world.camera_id(), b.W, b.H, r.row0, r.row1,
-                                    img);
-      pipe.add_rows(img, r.row0, r.row1);
-    } else {
-      b.render(img);
-      pipe.add(img);
-    }
+    sim::add_exposure_render(b.renderer, b.world, pipe, r, img);
   }
   cv::Mat out = pipe.finish(i, b.world.X_WC()).bgr;
   if (cost_ms) *cost_ms = ms_since(t0);

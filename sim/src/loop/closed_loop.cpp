@@ -344,9 +344,9 @@ struct ClosedLoop::Impl {
     in.index = job.frame.index;
     // What the driver reports: its stamp (the exposure end, with the stamp's error) and the
     // exposure interval that ends there.
-    in.exposure.t_start_s = job.frame.exposure.t_start_s + timing.stamp_error_s;
-    in.exposure.t_end_s = job.frame.exposure.t_end_s + timing.stamp_error_s;
-    in.exposure.readout_s = job.frame.exposure.readout_s;
+    in.exposure = job.frame.exposure;
+    in.exposure.t_start_s += timing.stamp_error_s;
+    in.exposure.t_end_s += timing.stamp_error_s;
     in.stamp_s = in.exposure.t_end_s;
     in.image = {job.frame.bgr.cols, job.frame.bgr.rows, static_cast<int>(job.frame.bgr.step[0]), job.frame.bgr.data};
     job.work = flight.begin_frame(in);

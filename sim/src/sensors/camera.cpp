@@ -364,6 +364,19 @@ void save_frame_png(const std::string& dir, const CameraFrame& frame) {
   write_png_file(fmt::format("{}/frame_{:05d}.png", dir, frame.index), frame.bgr);
 }
 
+void add_exposure_render(Renderer& renderer, World& world, CameraPipeline& pipe, const ExposureRender& r,
+                         cv::Mat& buf) {
+  const cv::Size rs = pipe.render_size();
+  if (pipe.banded()) {
+    renderer.render_camera_rows(world.model(), world.data(), world.camera_id(), rs.width, rs.height, r.row0, r.row1,
+                                buf);
+    pipe.add_rows(buf, r.row0, r.row1);
+  } else {
+    renderer.render_camera(world.model(), world.data(), world.camera_id(), rs.width, rs.height, buf);
+    pipe.add(buf);
+  }
+}
+
 CameraRig::CameraRig(const CameraParams& params, std::uint64_t seed, double physics_dt_s)
     : pipeline_(params, seed), dt_(physics_dt_s), period_(1.0 / params.rate_hz) {}
 
@@ -373,18 +386,9 @@ std::optional<CameraFrame> CameraRig::advance(double t_s, World& world, Renderer
   if (!exposing_ && t_s + 1e-9 >= next_frame_t_) begin_exposure(t_s, world);
   if (!exposing_) return std::nullopt;
   // The renders that fall now: the whole frame, or (rolling shutter) only its band's rows.
-  while (next_sample_ < sample_times_.size() && sample_times_[next_sample_].t_s <= t_s + 1e-9) {
-    const ExposureRender& r = sample_times_[next_sample_];
-    const cv::Size rs = pipeline_.render_size();
+  while (next_sample_ < planned_.size() && planned_[next_sample_].t_s <= t_s + 1e-9) {
     const auto t0 = std::chrono::steady_clock::now();
-    if (banded_) {
-      renderer.render_camera_rows(world.model(), world.data(), world.camera_id(), rs.width, rs.height, r.row0, r.row1,
-                                  render_);
-      pipeline_.add_rows(render_, r.row0, r.row1);
-    } else {
-      renderer.render_camera(world.model(), world.data(), world.camera_id(), rs.width, rs.height, render_);
-      pipeline_.add(render_);
-    }
+    add_exposure_render(renderer, world, pipeline_, planned_[next_sample_], render_);
     ++renders_;
     ++frame_renders_;
     if (render_ms) {
@@ -392,7 +396,7 @@ std::optional<CameraFrame> CameraRig::advance(double t_s, World& world, Renderer
     }
     ++next_sample_;
   }
-  if (next_sample_ < sample_times_.size() ||
+  if (next_sample_ < planned_.size() ||
       t_s + 1e-9 < next_frame_t_ + p.exposure_s + p.rolling_shutter_readout_s) {
     return std::nullopt;
   }
@@ -415,10 +419,9 @@ void CameraRig::begin_exposure(double t_s, const World& world) {
                                        : p.blur_samples;
   const int n_bands =
       rolling ? rolling_shutter_bands(p, image_motion_px(p.intrinsics, motion, p.rolling_shutter_readout_s)) : 1;
-  banded_ = n_bands > 1;
   frame_renders_ = 0;
-  pipeline_.begin(t_s, banded_ ? n_blur : 0);
-  sample_times_ = exposure_renders(p, t_s, dt_, pipeline_.render_size().height, p.intrinsics.height_px, n_bands,
+  pipeline_.begin(t_s, n_bands > 1 ? n_blur : 0);
+  planned_ = exposure_renders(p, t_s, dt_, pipeline_.render_size().height, p.intrinsics.height_px, n_bands,
                                    n_blur);
   next_sample_ = 0;
 }

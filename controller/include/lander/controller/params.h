@@ -193,9 +193,10 @@ struct TrackerParams {
                                         ///< velocity filter starts from its velocity with
                                         ///< this sigma (m/s): the broadcast's velocity error
                                         ///< and the platform's change over its latency.
-                                        ///< Without one it starts at 0 +- 1 m/s (a walking
-                                        ///< cart), which a 5.7 m/s platform seen for 0.15 s
-                                        ///< at the view's edge pulled to 1.6 m/s (issue 56)
+                                        ///< Without one it starts at rest with
+                                        ///< velocity_prior_std_mps, which at 1 m/s pulled a
+                                        ///< 5.7 m/s platform seen for 0.15 s at the view's
+                                        ///< edge to 1.6 m/s (issue 56)
   void validate() const;
 };
 

@@ -99,8 +99,8 @@ class PlatformTracker {
 
   // The platform's velocity from elsewhere (its broadcast, W axes, m/s), or nothing: the
   // velocity filter's next (re)start begins from its horizontal part with
-  // broadcast_velocity_std_mps instead of at rest with 1 m/s. The caller keeps it current
-  // (nothing once the broadcast is stale).
+  // broadcast_velocity_std_mps instead of at rest with velocity_prior_std_mps. The caller
+  // keeps it current (nothing once the broadcast is stale).
   void set_velocity_prior(const std::optional<Eigen::Vector3d>& v_W_mps) { velocity_prior_ = v_W_mps; }
 
   int num_fixes() const { return static_cast<int>(fixes_.size()); }  ///< in history_s

@@ -33,8 +33,8 @@
 //   computer.measured_latency, the measured wall time of FrameJob::process): the result is
 //   delivered (deliver_frame) at the exposure end plus that latency (plus the camera's own
 //   delivery latency, camera.delivery_latency_ms), whatever the processing really cost. A
-//   frame the camera drops (camera.frame_drop_prob) never reaches begin_frame. Meanwhile the plant, the sensors and every other call go on. So that this can
-//   run in parallel, FrameJob::process may be called on a worker thread concurrently with any
+//   frame the camera drops (camera.frame_drop_prob) never reaches begin_frame. Meanwhile the
+//   plant, the sensors and every other call go on. So that this can run in parallel, FrameJob::process may be called on a worker thread concurrently with any
 //   other call on the loop thread; it must touch only what begin_frame captured into the job
 //   and state that only frame jobs use (a detector's tracking state: jobs run one at a time,
 //   in frame order, and each job's process has returned before the next begin_frame). Every

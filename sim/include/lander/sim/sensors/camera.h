@@ -242,6 +242,8 @@ class CameraPipeline {
   void add(const cv::Mat& render_bgr); // one sub-render (pinhole, render_size())
   // One render's rows [row0, row1) (rolling shutter): every row must get renders_per_row.
   void add_rows(const cv::Mat& render_bgr, int row0, int row1);
+  // This exposure is assembled from bands (begun with renders_per_row > 0).
+  bool banded() const { return renders_per_row_ > 0; }
   // Averages the sub-renders and finishes the frame. Throws if no render was added.
   CameraFrame finish(int index, const Eigen::Isometry3d& X_WC_mid);
   // Bytes of the last frame's JPEG (0 without jpeg_quality).
@@ -268,6 +270,12 @@ class CameraPipeline {
   CameraFrame averaged(int index, const Eigen::Isometry3d& X_WC_mid);
 };
 
+// One planned render of an exposure (exposure_renders) of the world's camera in its state now,
+// into `buf` and added to `pipe`: only the band's rows when the pipeline assembles bands
+// (Renderer::render_camera_rows), the whole view else.
+void add_exposure_render(Renderer& renderer, World& world, CameraPipeline& pipe, const ExposureRender& r,
+                         cv::Mat& buf);
+
 // The camera on the vehicle in the loop: exposes at its rate, renders the world at the
 // exposure's sample times (one physics state each) and finishes the frame when the exposure
 // ends. Call advance() once per physics step, before the step, with the state at t_s.
@@ -287,8 +295,7 @@ class CameraRig {
   int frame_index_ = 0;
   double next_frame_t_ = 0.0;
   bool exposing_ = false;
-  std::vector<ExposureRender> sample_times_;
-  bool banded_ = false;      // this frame is assembled from bands (rolling shutter)
+  std::vector<ExposureRender> planned_;  // this exposure's renders (exposure_renders)
   int frame_renders_ = 0;    // renders of the frame being exposed
   std::size_t next_sample_ = 0;
   long renders_ = 0;
