@@ -1,6 +1,9 @@
 // The estimator benchmark of issue 3: ours vs AprilTag vs ArUco on frames with known truth.
 #include "lander/bench/estimator_bench.h"
 
+#include "bench_metrics.h"
+#include "camera_condition.h"
+
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -42,6 +45,10 @@ void EstimatorBenchParams::validate() const {
   for (double w : shadow_widths_m) require(w > 0, "shadow_widths_m", "must be > 0");
   require(!shadow_lights.empty(), "shadow_lights", "must not be empty");
   for (double l : shadow_lights) require(l >= 0 && l < 1, "shadow_lights", "must be in [0, 1)");
+  require(!camera_altitudes_m.empty(), "camera_altitudes_m", "must not be empty");
+  for (double a : camera_altitudes_m) require(a > 0, "camera_altitudes_m", "must be > 0");
+  require(!camera_tilts_deg.empty(), "camera_tilts_deg", "must not be empty");
+  for (double t : camera_tilts_deg) require(t >= 0 && t < 85, "camera_tilts_deg", "must be in [0, 85)");
 }
 
 // The band's signed coordinate s(q) = q . n - offset on the plane; a pixel's ray meets the
@@ -133,170 +140,8 @@ Eigen::Isometry3d bench_camera_pose_P(double altitude_m, double tilt_deg, double
   return X_PC;
 }
 
-namespace {
+using namespace detail;  // metrics and view geometry (bench_metrics.h)
 
-using Json = nlohmann::ordered_json;
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-// A "gross" pose: position error above 5 % of the true range. Ours is at 0.02-0.1 % where it
-// works (0.2 mm at 2.5 m) and the peers at 0.1-2 %; 5 % is a wrong pose, not noise.
-constexpr double kGrossPosFrac = 0.05;
-// A rotation error above this is a gross rotation: a wrong identity of the ring sets turns the
-// pose by a multiple of 60 deg about the platform normal with the position still right, which
-// the position criterion above cannot see (ours' mean rotation error over the sweep: 0.2 deg).
-constexpr double kGrossRotDeg = 10.0;
-
-// CPU time of the calling thread (ms): the per-frame cost on one core, unaffected by other
-// processes sharing the machine (wall time is, on a loaded 2-core box, by 2-3x).
-double thread_cpu_ms() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
-
-// Runs f() and returns its result with the thread CPU time it took (ms).
-template <class F>
-auto timed(F&& f, double& ms) {
-  const double t0 = thread_cpu_ms();
-  auto r = f();
-  ms = thread_cpu_ms() - t0;
-  return r;
-}
-
-// Metric accumulator for one method and one group of frames.
-struct Stats {
-  int frames = 0, detected = 0, empty = 0, false_pos = 0;
-  int gross = 0;  ///< detections whose position error exceeds kGrossPosFrac of the range
-  int gross_rot = 0;  ///< detections whose rotation error exceeds kGrossRotDeg
-  std::vector<double> centre_err, reproj, pos, rot, ms, ms_tracking, ms_empty;
-
-  Json json(bool with_tracking) const {
-    Json j = Json::object();
-    j["detection_rate"] = frames ? static_cast<double>(detected) / frames : kNaN;
-    j["false_positive_rate"] = empty ? static_cast<double>(false_pos) / empty : kNaN;
-    const SampleSummary reproj_s = summarize(reproj);
-    j["centre_err_px_mean"] = summarize(centre_err).mean;
-    j["reproj_err_px_mean"] = reproj_s.mean;
-    j["reproj_err_px_var"] = reproj_s.var;
-    const SampleSummary pos_s = summarize(pos);
-    j["pos_err_m_mean"] = pos_s.mean;
-    j["pos_err_m_p95"] = pos_s.p95;
-    j["pos_err_m_max"] = pos_s.max;
-    j["gross_poses"] = gross;
-    const SampleSummary rot_s = summarize(rot);
-    j["rot_err_deg_mean"] = rot_s.mean;
-    j["rot_err_deg_max"] = rot_s.max;
-    j["gross_rotations"] = gross_rot;
-    j["ms_per_frame_median"] = summarize(ms).median;
-    if (with_tracking) j["ms_per_frame_median_tracking"] = summarize(ms_tracking).median;
-    if (with_tracking) j["ms_per_frame_median_empty"] = summarize(ms_empty).median;
-    j["frames"] = frames;
-    j["detected"] = detected;
-    j["empty_frames"] = empty;
-    j["false_positives"] = false_pos;
-    return j;
-  }
-};
-
-// One method's accumulators: overall, by altitude, by blur, by tilt, and over the views whose
-// ring sets are all at least kResolvablePx across (the issue's "rings >= 4 px across").
-struct MethodStats {
-  Stats overall, resolvable;
-  std::map<double, Stats> by_alt, by_blur, by_tilt;
-  template <class F>
-  void add(double alt, double blur, double tilt, bool resolved, F&& f) {
-    f(overall);
-    f(by_alt[alt]);
-    f(by_blur[blur]);
-    f(by_tilt[tilt]);
-    if (resolved) f(resolvable);
-  }
-  template <class F>
-  void add_empty(double alt, F&& f) {
-    f(overall);
-    f(by_alt[alt]);
-  }
-  static std::string key(double v) {
-    std::ostringstream os;
-    os << v;
-    return os.str();
-  }
-  Json json(bool with_tracking) const {
-    Json j = Json::object();
-    j["overall"] = overall.json(with_tracking);
-    Json a = Json::object();
-    for (const auto& [k, s] : by_alt) a[key(k)] = s.json(false);
-    j["by_altitude_m"] = a;
-    Json b = Json::object();
-    for (const auto& [k, s] : by_blur) b[key(k)] = s.json(false);
-    j["by_blur_px"] = b;
-    Json t = Json::object();
-    for (const auto& [k, s] : by_tilt) t[key(k)] = s.json(false);
-    j["by_tilt_deg"] = t;
-    if (resolvable.frames > 0) j["rings_resolvable"] = resolvable.json(false);
-    return j;
-  }
-};
-
-double rot_err_deg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return Eigen::AngleAxisd(a.linear().transpose() * b.linear()).angle() * 180.0 / M_PI;
-}
-
-// Raw-image projections of P points (distortion applied).
-std::vector<Eigen::Vector2d> project_P(const CameraModel& cam, const Eigen::Isometry3d& X_CP,
-                                       const std::vector<Eigen::Vector2d>& pts_P) {
-  std::vector<cv::Point3d> obj;
-  for (const auto& p : pts_P) {
-    const Eigen::Vector3d q = X_CP * Eigen::Vector3d(p.x(), p.y(), 0);
-    obj.emplace_back(q.x(), q.y(), q.z());
-  }
-  std::vector<cv::Point2d> img;
-  cv::projectPoints(obj, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), camera_matrix_cv(cam),
-                    dist_coeffs_cv(cam), img);
-  std::vector<Eigen::Vector2d> out;
-  for (const auto& p : img) out.emplace_back(p.x, p.y);
-  return out;
-}
-
-// True if any part of the platform top projects into the image in front of the camera.
-bool platform_in_view(const CameraModel& cam, const Eigen::Isometry3d& X_CP,
-                      const TargetGeometry& g) {
-  const double hx = 0.5 * g.platform_size_m.x(), hy = 0.5 * g.platform_size_m.y();
-  for (int i = 0; i <= 8; ++i) {
-    for (int j = 0; j <= 8; ++j) {
-      const Eigen::Vector3d q = X_CP * Eigen::Vector3d(-hx + i * hx / 4, -hy + j * hy / 4, 0);
-      if (q.z() <= 0.05) continue;
-      const double u = cam.fx_px * q.x() / q.z() + cam.cx_px;
-      const double v = cam.fy_px * q.y() / q.z() + cam.cy_px;
-      const double m = 0.5 * std::max(cam.width_px, cam.height_px);  // generous margin
-      if (u > -m && u < cam.width_px + m && v > -m && v < cam.height_px + m) return true;
-    }
-  }
-  return false;
-}
-
-// The smallest extent (px) of any ring set's outer circle in the image: the shortest of the
-// projected diameters through its centre in 12 directions (the ellipse's minor axis, closely).
-// Infinite-free: a set behind the camera gives 0.
-double min_ring_extent_px(const CameraModel& cam, const Eigen::Isometry3d& X_CP,
-                          const TargetGeometry& g) {
-  double best = std::numeric_limits<double>::infinity();
-  for (const auto& r : g.rings) {
-    std::vector<Eigen::Vector2d> pts;
-    for (int k = 0; k < 24; ++k) {
-      const double a = M_PI * k / 12;
-      pts.push_back(r.centre_P_m + r.outer_radius_m * Eigen::Vector2d(std::cos(a), std::sin(a)));
-    }
-    for (const auto& p : pts) {
-      if ((X_CP * Eigen::Vector3d(p.x(), p.y(), 0)).z() <= 0.05) return 0.0;
-    }
-    const auto img = project_P(cam, X_CP, pts);
-    for (int k = 0; k < 12; ++k) best = std::min(best, (img[k] - img[k + 12]).norm());
-  }
-  return best;
-}
-
-}  // namespace
 
 std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isometry3d& X_WP,
                                 const TargetGeometry& g, const CameraModel& cam,
@@ -323,15 +168,6 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
   const double blur_dir = p.blur_direction_deg * M_PI / 180.0;
   auto blur_vector = [&](double length_px) {
     return Eigen::Vector2d(length_px * std::cos(blur_dir), length_px * std::sin(blur_dir));
-  };
-  // A detection's reprojection, position (and whether it is gross) and rotation errors.
-  auto add_pose = [](Stats& s, double reproj_px, const Eigen::Isometry3d& X_est,
-                     const Eigen::Isometry3d& X_CP) {
-    s.reproj.push_back(reproj_px);
-    s.pos.push_back((X_est.translation() - X_CP.translation()).norm());
-    s.gross += s.pos.back() > kGrossPosFrac * X_CP.translation().norm();
-    s.rot.push_back(rot_err_deg(X_est, X_CP));
-    s.gross_rot += s.rot.back() > kGrossRotDeg;
   };
   // One frame of ours / of a square marker into a group: detection, centre or corner error
   // against the true projections `truth`, reprojection, pose error.
@@ -525,25 +361,8 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
   // Own random stream: the view sweep and empty frames above draw the same poses with or
   // without the shadow condition.
   std::mt19937_64 srng(p.seed + 12);
-  // The whole target in view: every ring set's outer circle and the marker's corners inside
-  // the frame (so each method has its whole target to find).
   auto target_in_view = [&](const Eigen::Isometry3d& X_CP) {
-    std::vector<Eigen::Vector2d> pts(corners_P);
-    for (const auto& r : g.rings) {
-      for (int k = 0; k < 16; ++k) {
-        const double a = 2 * M_PI * k / 16;
-        pts.push_back(r.centre_P_m + r.outer_radius_m * Eigen::Vector2d(std::cos(a), std::sin(a)));
-      }
-    }
-    for (const auto& q : pts) {
-      if ((X_CP * Eigen::Vector3d(q.x(), q.y(), 0)).z() <= 0.05) return false;
-    }
-    for (const auto& u : project_P(cam, X_CP, pts)) {
-      if (u.x() < 1 || u.y() < 1 || u.x() > cam.width_px - 2 || u.y() > cam.height_px - 2) {
-        return false;
-      }
-    }
-    return true;
+    return detail::target_in_view(cam, X_CP, g, corners_P);
   };
   int shadow_views = 0;
   for (double alt : p.shadow_sweep ? p.shadow_altitudes_m : std::vector<double>{}) {
@@ -742,6 +561,7 @@ std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isomet
   aruco["subpix"] = s_aruco_sub.json(false);
   out["aruco"] = aruco;
   if (p.shadow_sweep) out["shadows"] = shadows;
+  if (p.camera_sweep) out["camera"] = run_camera_condition(render, X_WP, g, cam, vision, p, progress);
   Json cfg = Json::object();
   cfg["camera"] = std::to_string(cam.width_px) + "x" + std::to_string(cam.height_px) +
                   " fx " + MethodStats::key(cam.fx_px);

@@ -8,6 +8,8 @@
 
 #include <fstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace {
 
@@ -36,6 +38,21 @@ TEST(Cli, UnknownCommandIsNamed) {
   const auto r = run_lander("fly-to-the-moon");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("fly-to-the-moon"), std::string::npos) << r.output;
+}
+
+// The estimator bench's condition flags that contradict each other are usage errors naming
+// both, before any frame is rendered (and no JSON is written).
+TEST(Cli, BenchEstimatorContradictoryConditionFlagsAreNamed) {
+  const std::string dir = temp_dir();
+  for (const auto& [flags, named] : std::vector<std::pair<std::string, std::string>>{
+           {"--no-camera --camera-only", "--no-camera"},
+           {"--shadows-only --camera-only", "--camera-only"},
+           {"--no-shadows --shadows", "--no-shadows"}}) {
+    const auto r = run_lander("bench estimator --json " + dir + "/b.json " + flags);
+    EXPECT_EQ(r.code, 2) << flags << "\n" << r.output;
+    EXPECT_NE(r.output.find(named), std::string::npos) << flags << "\n" << r.output;
+    EXPECT_FALSE(exists(dir + "/b.json")) << flags;
+  }
 }
 
 TEST(Cli, MissingScenarioFileIsNamedAndNothingIsWritten) {

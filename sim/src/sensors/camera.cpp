@@ -1,4 +1,5 @@
 #include "lander/sim/sensors/camera.h"
+#include "lander/sim/sensors/jpeg.h"
 
 #include <chrono>
 
@@ -262,13 +263,22 @@ CameraFrame CameraPipeline::finish(int index, const Eigen::Isometry3d& X_WC_mid)
 void CameraPipeline::deliver(CameraFrame* f) {
   last_jpeg_bytes_ = 0;
   if (params_.jpeg_quality <= 0) return;
-  std::vector<uchar> jpeg;
-  if (!cv::imencode(".jpg", f->bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, params_.jpeg_quality})) {
-    throw std::runtime_error(fmt::format("camera frame {}: JPEG encoding failed", f->index));
+  try {
+    f->bgr = jpeg_round_trip(f->bgr, params_.jpeg_quality, &last_jpeg_bytes_);
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(fmt::format("camera frame {}: {}", f->index, e.what()));
   }
-  last_jpeg_bytes_ = jpeg.size();
-  f->bgr = cv::imdecode(jpeg, cv::IMREAD_COLOR);
-  if (f->bgr.empty()) throw std::runtime_error(fmt::format("camera frame {}: JPEG decoding failed", f->index));
+}
+
+cv::Mat jpeg_round_trip(const cv::Mat& bgr, int quality, std::size_t* bytes) {
+  std::vector<uchar> jpeg;
+  if (!cv::imencode(".jpg", bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, quality})) {
+    throw std::runtime_error("JPEG encoding failed");
+  }
+  if (bytes) *bytes = jpeg.size();
+  cv::Mat out = cv::imdecode(jpeg, cv::IMREAD_COLOR);
+  if (out.empty()) throw std::runtime_error("JPEG decoding failed");
+  return out;
 }
 
 CameraFrame CameraPipeline::averaged(int index, const Eigen::Isometry3d& X_WC_mid) {

@@ -87,6 +87,19 @@ struct EstimatorBenchParams {
                                  ///< width x light band at one random angle and offset
   double shadow_max_offset_m{0.6};  ///< band centre line within this of the P origin (m)
   int shadow_empty_frames{200};  ///< target-free frames with a random band, per method
+  // ---- camera condition (issue 54): the seed's camera, rolling shutter and JPEG ----
+  bool camera_sweep{false};   ///< run the camera condition (`lander bench estimator` turns it
+                              ///< on for the full sweep)
+  std::vector<double> camera_altitudes_m{1.5, 2.5, 5.0, 10.0};  ///< camera heights (m)
+  std::vector<double> camera_tilts_deg{0.0, 30.0, 45.0};        ///< optical axis vs normal
+  int camera_views_per_pose{3};    ///< random yaws and motions per altitude/tilt
+  double camera_readout_ms{30.0};  ///< rolling shutter: first row to last row (ms)
+  int camera_jpeg_quality{80};     ///< JPEG quality of the JPEG conditions
+  double camera_speed_mps{2.0};    ///< the camera's speed over the platform during the readout
+                                   ///< (m/s, a random direction parallel to the platform)
+  double camera_rate_dps{30.0};    ///< its angular rate about a random axis (deg/s)
+  int camera_bands{32};            ///< bands of rows a rolling-shutter frame is built from, each
+                                   ///< rendered at its centre row's time
   void validate() const;
 };
 
@@ -114,6 +127,21 @@ void visit_fields(V& v, EstimatorBenchParams& p) {
     "band centre line within this of the P origin");
   v("shadow_empty_frames", p.shadow_empty_frames, range::non_negative, "",
     "target-free frames with a random band");
+  v("camera_sweep", p.camera_sweep, range::any, "", "run the camera condition");
+  v("camera_altitudes_m", p.camera_altitudes_m, range::any, "m", "camera heights");
+  v("camera_tilts_deg", p.camera_tilts_deg, range::any, "deg", "optical axis vs normal");
+  v("camera_views_per_pose", p.camera_views_per_pose, range::at_least(1), "",
+    "random yaws and motions per altitude/tilt");
+  v("camera_readout_ms", p.camera_readout_ms, range::positive, "ms",
+    "rolling shutter: first row to last row");
+  v("camera_jpeg_quality", p.camera_jpeg_quality, range::closed(1, 100), "",
+    "JPEG quality of the JPEG conditions");
+  v("camera_speed_mps", p.camera_speed_mps, range::non_negative, "m/s",
+    "the camera's speed over the platform during the readout");
+  v("camera_rate_dps", p.camera_rate_dps, range::non_negative, "deg/s",
+    "its angular rate about a random axis");
+  v("camera_bands", p.camera_bands, range::at_least(1), "",
+    "bands of rows a rolling-shutter frame is built from");
 }
 
 // Camera pose X_PC looking at `aim_P_m` from `altitude_m` above the platform plane, the optical
@@ -137,6 +165,8 @@ Eigen::Isometry3d bench_camera_pose_P(double altitude_m, double tilt_deg, double
 // corners inside the image), `all` frames, `by_width_m`, `by_altitude_m` and
 // `by_sets_crossed` (in-view frames), and `empty` (target-free frames with a band); the
 // same rendered frame (one per view and method) carries every band.
+// With params.camera_sweep, `camera` holds the camera condition (camera_condition.h): the same
+// views and motions seen through a global shutter, JPEG, a rolling shutter and both.
 // `progress`, if given, receives one line per altitude and, at the end, the shadow table.
 std::string run_estimator_bench(const BenchRenderFn& render, const Eigen::Isometry3d& X_WP,
                                 const TargetGeometry& target, const CameraModel& camera,
