@@ -7,6 +7,21 @@
 
 namespace lander::flight {
 
+ExposureInterval FlightCamera::believed_exposure(const ExposureInterval& reported, double stamp_s) const {
+  ExposureInterval e = reported;
+  if (stamp_delay_s != 0.0) {  // the exposure ends stamp_delay before the stamp
+    const double shift = (stamp_s - stamp_delay_s) - e.t_end_s;
+    e.t_start_s += shift;
+    e.t_end_s += shift;
+  }
+  if (readout_s >= 0.0 && readout_s != e.readout_s) {  // the believed readout, rows' exposure kept
+    const double row_exposure = e.row_exposure_s();
+    e.readout_s = readout_s;
+    e.t_start_s = e.t_end_s - row_exposure - readout_s;
+  }
+  return e;
+}
+
 void FlightConfig::validate() const {
   require(!target_path.empty(), "target", "must name a target YAML");
   require(plugin.empty() || python.empty(), "python", "one flight software flies: flight.plugin is set too");

@@ -85,7 +85,10 @@ FlightSoftwareInfo FlightStack::info() const { return {"lander", LANDER_VERSION}
 std::unique_ptr<FrameJob> FlightStack::begin_frame(const CameraFrameIn& frame) {
   // The path stage (seed 003) runs only while the controller can use it; the blur is
   // predicted from the state the flight software has when the frame arrives.
-  return std::make_unique<RingFrameJob>(*this, frame, wants_path(), predicted_blur_px(frame.exposure));
+  // The exposure as the flight software reads the driver's metadata (flight.camera).
+  CameraFrameIn believed = frame;
+  believed.exposure = config_.camera.believed_exposure(frame.exposure, frame.stamp_s);
+  return std::make_unique<RingFrameJob>(*this, believed, wants_path(), predicted_blur_px(believed.exposure));
 }
 
 void FlightStack::deliver_frame(std::unique_ptr<FrameJob> job) {

@@ -150,6 +150,64 @@ TEST(FlightStack, RollingShutterPosesTakeTheirRowsTime) {
   EXPECT_EQ(plain.observation_time(e, obs, rows), e.mid());
 }
 
+// The flight software's belief of its frames' timing (flight.camera, issue 54). A driver that
+// stamps on arrival reports the exposure 40 ms late; believing a 40 ms stamp delay puts it
+// back where it was. A believed readout replaces the reported one with each row's exposure
+// kept. The defaults take the driver's interval as it is (bit for bit).
+TEST(FlightCamera, BelievedExposureFollowsTheStampDelayAndReadout) {
+  constexpr double kExact = 1e-12;  // sums of a few doubles near 1 s
+  ExposureInterval truth;
+  truth.t_start_s = 1.0;
+  truth.readout_s = 0.030;
+  truth.t_end_s = 1.0 + 0.030 + 0.002;  // 2 ms rows
+  ExposureInterval reported = truth;   // stamped on arrival, 40 ms after the exposure end
+  reported.t_start_s += 0.040;
+  reported.t_end_s += 0.040;
+  const double stamp = reported.t_end_s;
+
+  const FlightCamera defaults;
+  const ExposureInterval same = defaults.believed_exposure(reported, stamp);
+  EXPECT_EQ(same.t_start_s, reported.t_start_s);
+  EXPECT_EQ(same.t_end_s, reported.t_end_s);
+  EXPECT_EQ(same.readout_s, reported.readout_s);
+
+  FlightCamera delayed;
+  delayed.stamp_delay_s = 0.040;
+  const ExposureInterval back = delayed.believed_exposure(reported, stamp);
+  EXPECT_NEAR(back.t_start_s, truth.t_start_s, kExact);
+  EXPECT_NEAR(back.t_end_s, truth.t_end_s, kExact);
+  EXPECT_EQ(back.readout_s, truth.readout_s);
+
+  FlightCamera global;  // believes a global shutter: the rows' 2 ms, ending at the stamp
+  global.readout_s = 0.0;
+  const ExposureInterval g = global.believed_exposure(reported, stamp);
+  EXPECT_EQ(g.readout_s, 0.0);
+  EXPECT_EQ(g.t_end_s, reported.t_end_s);
+  EXPECT_NEAR(g.row_exposure_s(), 0.002, kExact);
+  EXPECT_NEAR(g.mid(), reported.t_end_s - 0.001, kExact);
+}
+
+// Through the stack: a frame without a target is stamped at the believed exposure's middle
+// (flight.camera.stamp_delay_ms 40 on a driver stamping 40 ms after the exposure end: the
+// true middle).
+TEST(FlightStack, FramesAreTimedByTheBelievedExposure) {
+  constexpr double kExact = 1e-12;
+  FlightConfig c;
+  c.camera.stamp_delay_s = 0.040;
+  FlightStack fs(c);
+  std::vector<std::uint8_t> grey(static_cast<std::size_t>(c.camera.width_px) * c.camera.height_px * 3, 128);
+  CameraFrameIn in;
+  in.exposure.t_start_s = 1.040;
+  in.exposure.t_end_s = 1.042;
+  in.stamp_s = 1.042;
+  in.image = {c.camera.width_px, c.camera.height_px, 3 * c.camera.width_px, grey.data()};
+  auto job = fs.begin_frame(in);
+  job->process();
+  const auto& r = static_cast<const RingFrameJob&>(*job).result();
+  EXPECT_FALSE(r.obs.detected);
+  EXPECT_NEAR(r.obs.t_s, 1.001, kExact);
+}
+
 // Given a vehicle at rest 8 m up whose GPS reads 2 m (a degraded receiver's slowly varying
 // height error) and a barometer that reads true, when the stack has run 5 s, then with
 // navigation.height_from_altitude_fusion the controller's state carries the altitude fusion's

@@ -21,6 +21,8 @@ import re
 # the order visit_fields calls them): their calls are the struct's keys in file order.
 VISIT_RE = re.compile(r"void\s+visit_(?:\w+_)?fields\s*\(\s*V\s*&\s*v\s*,\s*([\w:]+)\s*&\s*p\s*\)\s*\{")
 CALL_RE = re.compile(r'\bv(\.nested|\.list)?\(\s*"([^"]+)"\s*,\s*p\.([\w.]+)\s*(?:,\s*([^)]*))?\)')
+# A struct's visit_fields that visits its base first: visit_fields(v, static_cast<Base&>(p)).
+BASE_RE = re.compile(r"\bvisit_fields\(\s*v\s*,\s*static_cast<\s*([\w:]+)\s*&\s*>\(\s*p\s*\)\s*\)")
 STRUCT_RE = re.compile(r"^\s*struct\s+(\w+)\s*(?:final\s*)?(?::[^{]*)?\{")
 
 
@@ -94,10 +96,13 @@ def parse_file(path, rel):
             depth += {"{": 1, "}": -1}.get(text[i], 0)
             i += 1
         body = text[start:i - 1]
-        calls = []
+        found = []
         for c in CALL_RE.finditer(body):
             kind = {None: "value", ".nested": "nested", ".list": "list"}[c.group(1)]
-            calls.append((kind, c.group(2), c.group(3), (c.group(4) or "").strip() or None))
+            found.append((c.start(), (kind, c.group(2), c.group(3), (c.group(4) or "").strip() or None)))
+        for c in BASE_RE.finditer(body):
+            found.append((c.start(), ("base", "", c.group(1).split("::")[-1], None)))
+        calls = [call for _, call in sorted(found, key=lambda f: f[0])]
         visits.append((name, calls, text.count("\n", 0, m.start()) + 1))
     # structs and their fields (depth 1 inside the struct body)
     stack = []  # (Struct, depth at which its body lives)
@@ -217,6 +222,11 @@ def walk(structs, root, prefix=""):
     if not s.visits:
         raise KeyError("no visit_fields() found for struct %s (%s:%d)" % (root, s.file, s.line))
     for kind, key, field, scale in s.visits:
+        if kind == "base":  # the base struct's keys, at this level
+            if field not in structs:
+                raise KeyError("base struct %s of %s not found in the headers" % (field, root))
+            out.extend(walk(structs, field, prefix))
+            continue
         fld = s.fields.get(field.split(".")[0])
         path = prefix + key
         if kind == "value":

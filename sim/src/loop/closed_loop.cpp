@@ -342,11 +342,12 @@ struct ClosedLoop::Impl {
     }
     flight::CameraFrameIn in;
     in.index = job.frame.index;
-    // What the driver reports: its stamp (the exposure end, with the stamp's error) and the
-    // exposure interval that ends there.
+    // What the driver reports: its stamp (the exposure end, or the arrival with
+    // camera.stamp_at_arrival; with the stamp's error) and the exposure interval that ends there.
+    const double stamp_shift_s = timing.stamp_error_s + (s.camera.stamp_at_arrival ? timing.delivery_latency_s : 0.0);
     in.exposure = job.frame.exposure;
-    in.exposure.t_start_s += timing.stamp_error_s;
-    in.exposure.t_end_s += timing.stamp_error_s;
+    in.exposure.t_start_s += stamp_shift_s;
+    in.exposure.t_end_s += stamp_shift_s;
     in.stamp_s = in.exposure.t_end_s;
     in.image = {job.frame.bgr.cols, job.frame.bgr.rows, static_cast<int>(job.frame.bgr.step[0]), job.frame.bgr.data};
     job.work = flight.begin_frame(in);

@@ -19,6 +19,37 @@
 
 namespace lander::flight {
 
+// The flight software's camera: its calibration and what it believes about its frames' timing
+// (issue 54). The driver reports each frame's exposure and stamp (CameraFrameIn); these say how
+// the flight software reads them, and may differ from the camera's truth (the scenario's
+// camera.rolling_shutter_readout_ms, camera.stamp_at_arrival): a miscalibrated belief is a
+// plant/flight mismatch like any other.
+struct FlightCamera : CameraModel {
+  double readout_s{-1e-3};     ///< rolling-shutter readout it assumes, first row to last (s);
+                               ///< negative: the readout the driver reports with each frame.
+                               ///< YAML readout_ms
+  double stamp_delay_s{0.0};   ///< time from the last row's exposure end to the driver's stamp
+                               ///< it assumes (s): the exposure is placed that much before the
+                               ///< stamp (0: stamped at the exposure end). YAML stamp_delay_ms
+  void validate() const {
+    CameraModel::validate();
+    check_fields(*this);
+  }
+  // The exposure the flight software works with: the driver's, moved to end stamp_delay before
+  // the stamp and given the believed readout (the rows' own exposure kept). With the defaults
+  // the driver's interval unchanged.
+  ExposureInterval believed_exposure(const ExposureInterval& reported, double stamp_s) const;
+};
+
+template <class V>
+void visit_fields(V& v, FlightCamera& p) {
+  visit_fields(v, static_cast<CameraModel&>(p));
+  v("readout_ms", p.readout_s, range::at_most(100), "ms",
+    "rolling-shutter readout it assumes (negative: the driver's per-frame value)", 1e-3);
+  v("stamp_delay_ms", p.stamp_delay_s, range::closed(0, 1000), "ms",
+    "time from the exposure end to the driver's stamp it assumes", 1e-3);
+}
+
 // The estimator's stages.
 struct EstimatorParams {
   VisionParams vision;
@@ -49,7 +80,7 @@ struct FlightConfig {
   // scenario names it). Empty: the in-class defaults, which equal models/flight.yaml.
   std::string file;
   std::string target_path{models_dir() + "/target.yaml"};  ///< target YAML
-  CameraModel camera;              ///< camera calibration: intrinsics and distortion
+  FlightCamera camera;             ///< camera calibration (intrinsics, distortion) and timing
   CameraMount mount;               ///< calibrated camera mount X_BC
   EstimatorParams estimator;
   ctl::ControllerParams controller;  ///< holds the nominal vehicle model (controller.vehicle)

@@ -88,6 +88,7 @@ struct CameraFrameIn {
   long index{0};              ///< frame number from 0
   ExposureInterval exposure;  ///< exposure start and end (s) as the driver reports them:
                               ///< they carry its stamp's error (camera.timestamp_jitter_ms)
+                              ///< and, with camera.stamp_at_arrival, end at the arrival
   double stamp_s{0.0};        ///< the driver's timestamp (s): the reported exposure end
   ImageView image;
 };

@@ -70,6 +70,12 @@ struct CameraParams {
                                  ///< vision latency; YAML delivery_latency_ms
   double delivery_latency_std_s{0.0};///< its std per frame (s), a Gaussian cut at 0; frames
                                  ///< keep their order; YAML delivery_latency_std_ms
+  bool stamp_at_arrival{false};  ///< the driver stamps each frame when it arrives (its
+                                 ///< exposure end + the delivery latency, + the jitter) and
+                                 ///< reports an exposure ending at that stamp, as drivers
+                                 ///< that stamp on buffer completion do; false: stamped at the
+                                 ///< exposure end. The flight software's belief of that delay
+                                 ///< is flight.camera.stamp_delay_ms
   // Blur whose render count follows the image motion (blur_renders()).
   bool adaptive_blur() const { return blur_samples > 1 && blur_px_per_render > 0; }
   void validate() const {
@@ -125,6 +131,8 @@ void visit_fields(V& v, CameraParams& p) {
     "mean extra time from the exposure end to the frame's arrival", 1e-3);
   v("delivery_latency_std_ms", p.delivery_latency_std_s, range::closed(0, 1000), "ms",
     "its std per frame (a Gaussian cut at 0)", 1e-3);
+  v("stamp_at_arrival", p.stamp_at_arrival, range::any, "",
+    "the driver stamps each frame when it arrives (exposure end + delivery latency)");
 }
 
 // One frame's delivery (FrameTimingModel): dropped or not, the driver stamp's error and the
