@@ -474,5 +474,38 @@ TEST(MujocoHandlers, AWarningThrowsInsteadOfPrinting) {
   mj_deleteModel(m);
 }
 
+// A large grey texture goes to GL as one channel (issue 53: the ring target's 4096 px with
+// mipmaps holds 22 MB as luminance, 89 MB as llvmpipe's RGB); its frames are the RGB upload's.
+// The ring target from 3 m and from 12 m (minified: mipmaps), against the same target with one
+// corner texel tinted, which keeps the RGB path: at most one grey level apart, and only where
+// that texel's mipmap averages reach (a handful of pixels).
+TEST_F(RenderFixture, GreyTextureUploadedAsLuminanceRendersAsRgb) {
+  constexpr int kMaxDiffDn = 1;         // the tinted texel's share of a mipmap average
+  constexpr int kMaxDifferingPx = 200;  // of 921 600: the corner's footprint at most
+  const cv::Mat grey = render_target_texture(world_->target());
+  cv::Mat tinted = grey.clone();
+  tinted.at<cv::Vec3b>(0, 0)[2] ^= 1;
+  Eigen::Isometry3d X_WP = world_->X_WP();
+  for (double height : {3.0, 12.0}) {
+    place_camera(camera_looking_at(X_WP, Eigen::Vector2d(0.05, -0.03), height, 0.3, 0.7, 0.2));
+    world_->set_texture("target_tex", grey);
+    renderer_->upload_texture(world_->model(), tex_id_);
+    ASSERT_EQ(renderer_->luminance_textures(), std::vector<int>{tex_id_});
+    const cv::Mat a = render();
+    world_->set_texture("target_tex", tinted);
+    renderer_->upload_texture(world_->model(), tex_id_);
+    ASSERT_TRUE(renderer_->luminance_textures().empty());
+    const cv::Mat b = render();
+    cv::Mat diff;
+    cv::absdiff(a, b, diff);
+    double max_dn = 0;
+    cv::minMaxLoc(diff.reshape(1), nullptr, &max_dn);
+    EXPECT_LE(max_dn, kMaxDiffDn) << height << " m";
+    EXPECT_LE(cv::countNonZero(diff.reshape(1)), kMaxDifferingPx) << height << " m";
+  }
+  world_->set_texture("target_tex", grey);
+  renderer_->upload_texture(world_->model(), tex_id_);
+}
+
 }  // namespace
 }  // namespace lander::sim

@@ -234,6 +234,8 @@ GlBackend GlContext::backend() const { return impl_->backend; }
 
 std::vector<std::string> GlContext::devices() const { return impl_->devices; }
 
+void* GlContext::proc(const char* name) const { return impl_->proc(name); }
+
 std::string GlContext::device_used() const {
   return impl_->backend == GlBackend::OsMesa ? "OSMesa (no EGL)" : impl_->device_used;
 }

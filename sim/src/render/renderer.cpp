@@ -4,6 +4,9 @@
 #include <chrono>
 #include <stdexcept>
 #include <string>
+#include <vector>
+
+#include <GL/gl.h>
 
 #include <Eigen/Core>
 #include <opencv2/imgproc.hpp>
@@ -96,6 +99,28 @@ void Renderer::upload_texture(const mjModel* m, int tex_id) {
   make_context(m);
 }
 
+namespace {
+
+// Textures of at least this many texels whose pixels are all grey go to GL as one channel:
+// MuJoCo uploads RGB, which llvmpipe keeps as 4 bytes a texel, so the 4096 px ring target with
+// its mipmaps holds 89 MB as RGB and 22 MB as luminance (issue 53: a run's peak memory).
+// Luminance samples as (L, L, L, 1): the same texels, filtered and mipmapped channel by
+// channel alike, so the frames are the same.
+constexpr long kGreyUploadMinTexels = 1L << 20;
+
+bool large_grey_texture(const mjModel* m, int id) {
+  if (m->tex_type[id] != mjTEXTURE_2D) return false;
+  const long n = static_cast<long>(m->tex_width[id]) * m->tex_height[id];
+  if (n < kGreyUploadMinTexels) return false;
+  const unsigned char* p = m->tex_rgb + m->tex_adr[id];
+  for (long i = 0; i < n; ++i, p += 3) {
+    if (p[0] != p[1] || p[1] != p[2]) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 void Renderer::make_context(const mjModel* m) {
   // MSAA is a property of MuJoCo's offscreen buffer, read from the model at context creation.
   // So is the shadow map (shadowsize^2 floats, which llvmpipe allocates and clears: 16 MB at
@@ -106,12 +131,77 @@ void Renderer::make_context(const mjModel* m) {
   const int saved_shadow = mm->vis.quality.shadowsize;
   mm->vis.quality.offsamples = params_.msaa_samples;
   if (!params_.shadows) mm->vis.quality.shadowsize = 0;
-  mjr_makeContext(m, &context_, mjFONTSCALE_100);
-  mm->vis.quality.offsamples = saved_samples;
-  mm->vis.quality.shadowsize = saved_shadow;
+  // The large grey textures: MuJoCo uploads a 1x1 texel of each (its RGB copy is never made),
+  // then ours replaces it.
+  struct Shrunk {
+    int id, width, height;
+  };
+  std::vector<Shrunk> grey;
+  for (int i = 0; i < m->ntex; ++i) {
+    if (!large_grey_texture(m, i)) continue;
+    grey.push_back({i, m->tex_width[i], m->tex_height[i]});
+    mm->tex_width[i] = mm->tex_height[i] = 1;
+  }
+  auto restore = [&] {
+    mm->vis.quality.offsamples = saved_samples;
+    mm->vis.quality.shadowsize = saved_shadow;
+    for (const Shrunk& t : grey) {
+      mm->tex_width[t.id] = t.width;
+      mm->tex_height[t.id] = t.height;
+    }
+  };
+  try {
+    mjr_makeContext(m, &context_, mjFONTSCALE_100);
+  } catch (...) {
+    restore();
+    throw;
+  }
+  restore();
+  luminance_textures_.clear();
+  for (const Shrunk& t : grey) {
+    upload_grey_texture(m, t.id);
+    luminance_textures_.push_back(t.id);
+  }
   mjr_setBuffer(mjFB_OFFSCREEN, &context_);
   if (context_.currentBuffer != mjFB_OFFSCREEN) {
     throw GlError("offscreen framebuffer not supported by " + gl_->description());
+  }
+}
+
+void Renderer::upload_grey_texture(const mjModel* m, int id) {
+  using BindTexture = void (*)(GLenum, GLuint);
+  using TexImage2D = void (*)(GLenum, GLint, GLint, GLsizei, GLsizei, GLint, GLenum, GLenum, const void*);
+  using GenerateMipmap = void (*)(GLenum);
+  using PixelStorei = void (*)(GLenum, GLint);
+  using GetIntegerv = void (*)(GLenum, GLint*);
+  using ActiveTexture = void (*)(GLenum);
+  using GetError = GLenum (*)();
+  const auto bind = reinterpret_cast<BindTexture>(gl_->proc("glBindTexture"));
+  const auto image = reinterpret_cast<TexImage2D>(gl_->proc("glTexImage2D"));
+  const auto mipmap = reinterpret_cast<GenerateMipmap>(gl_->proc("glGenerateMipmap"));
+  const auto store = reinterpret_cast<PixelStorei>(gl_->proc("glPixelStorei"));
+  const auto get = reinterpret_cast<GetIntegerv>(gl_->proc("glGetIntegerv"));
+  const auto active = reinterpret_cast<ActiveTexture>(gl_->proc("glActiveTexture"));
+  const auto error = reinterpret_cast<GetError>(gl_->proc("glGetError"));
+  if (!bind || !image || !mipmap || !store || !get || !active || !error) {
+    throw GlError("texture upload: " + gl_->description() + " lacks a GL 3.0 texture entry point");
+  }
+  const int w = m->tex_width[id], h = m->tex_height[id];
+  std::vector<unsigned char> luminance(static_cast<std::size_t>(w) * h);
+  const unsigned char* rgb = m->tex_rgb + m->tex_adr[id];
+  for (std::size_t k = 0; k < luminance.size(); ++k) luminance[k] = rgb[3 * k];
+  GLint alignment = 4;
+  get(GL_UNPACK_ALIGNMENT, &alignment);
+  active(GL_TEXTURE0);
+  bind(GL_TEXTURE_2D, context_.texture[id]);
+  store(GL_UNPACK_ALIGNMENT, 1);
+  image(GL_TEXTURE_2D, 0, GL_LUMINANCE8, w, h, 0, GL_LUMINANCE, GL_UNSIGNED_BYTE, luminance.data());
+  mipmap(GL_TEXTURE_2D);
+  store(GL_UNPACK_ALIGNMENT, alignment);
+  bind(GL_TEXTURE_2D, 0);
+  if (const GLenum e = error(); e != GL_NO_ERROR) {
+    throw GlError("texture upload: GL error " + std::to_string(e) + " uploading texture " + std::to_string(id) +
+                  " (" + std::to_string(w) + "x" + std::to_string(h) + ") as luminance on " + gl_->description());
   }
 }
 

@@ -38,6 +38,8 @@ class GlContext {
   // the one in use (a hardware device is preferred to Mesa's surfaceless platform).
   std::vector<std::string> devices() const;
   std::string device_used() const;
+  // Address of a GL entry point (the backend's *GetProcAddress); null if it has none.
+  void* proc(const char* name) const;
 
  private:
   struct Impl;

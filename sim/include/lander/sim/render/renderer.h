@@ -67,6 +67,8 @@ class Renderer {
 
   // Re-uploads model texture `tex_id` after its pixels changed (World::set_texture).
   void upload_texture(const mjModel* m, int tex_id);
+  // Ids of the textures the current context holds as one grey channel (make_context).
+  const std::vector<int>& luminance_textures() const { return luminance_textures_; }
 
   std::string backend_description() const { return gl_->description(); }
   std::vector<std::string> backend_devices() const { return gl_->devices(); }
@@ -90,10 +92,14 @@ class Renderer {
   // at, for the shadow map's extent), -1 for a free camera.
   void render(const mjModel* m, mjData* d, mjvCamera& cam, int width, int height, cv::Mat& bgr,
               int exclude_body, int row0 = 0, int row1 = -1);
-  // Creates MuJoCo's GL context (uploads every texture) with the configured MSAA.
+  // Creates MuJoCo's GL context (uploads every texture) with the configured MSAA. Large
+  // textures whose every pixel is grey (the ring target) go to GL as one channel.
   void make_context(const mjModel* m);
+  // Uploads 2D texture `id` of m (all grey) to its GL texture as 8-bit luminance, mipmapped.
+  void upload_grey_texture(const mjModel* m, int id);
 
   std::unique_ptr<GlContext> gl_;
+  std::vector<int> luminance_textures_;
   RenderParams params_;
   mjvScene scene_;
   mjrContext context_;
