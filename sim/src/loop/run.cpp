@@ -1,5 +1,6 @@
 #include "lander/sim/run.h"
 
+#include <sys/resource.h>
 #include <sys/stat.h>
 
 #include <chrono>
@@ -27,6 +28,14 @@ namespace lander::sim {
 using Json = nlohmann::ordered_json;
 
 namespace {
+
+// The process's peak resident memory so far (MB of 2^20 bytes; Linux reports KiB): in a
+// campaign every run is its own process, so this is the run's (issue 53).
+double peak_rss_mb() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_maxrss) / 1024.0;
+}
 
 bool is_dir(const std::string& p) {
   struct stat st;
@@ -254,6 +263,7 @@ Json run_scenario(const Scenario& s, const RunOptions& o) {
                                      {"control", r.control_ms / n},
                                      {"physics", r.physics_ms / n},
                                      {"vision_wait", r.vision_wait_ms / n}};
+      perf["peak_rss_mb"] = peak_rss_mb();
       // Timings differ run to run: they go beside summary.json, which stays deterministic.
       write_json_file(o.out_dir + "/performance.json", perf);
     }
