@@ -303,6 +303,11 @@ Eigen::Vector3d PlatformTracker::acceleration() const {
   return clamp_norm(ca_x_.row(2).transpose(), p_.platform_max_accel_mps2);
 }
 
+Eigen::Vector3d PlatformTracker::velocity_of_acceleration_filter() const {
+  if (!kf_init_) return Eigen::Vector3d::Zero();
+  return clamp_norm(ca_x_.row(1).transpose(), p_.platform_max_speed_mps);
+}
+
 Eigen::Vector3d PlatformTracker::position_now(double t_s) const {
   const PlatformFix& f = latest();
   Eigen::Vector3d p;

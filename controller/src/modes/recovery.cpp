@@ -281,7 +281,12 @@ Setpoint RecoveryMode::servo(LandingContext& c, const Tick& k, double rel_speed,
   const double platform_vz = deck_ff.valid  ? deck_ff.vz_mps
                              : deck_moving_ ? (fresh ? c.diag.platform_v_W_mps.z() : 0.0)
                                             : platform_vz_lp_;
-  sp.v_W_mps = Eigen::Vector3d(c.diag.platform_v_W_mps.x(), c.diag.platform_v_W_mps.y(), platform_vz + d.vz_ff_mps);
+  // Horizontally the constant-velocity filter's velocity, or, with turn_velocity_feed_forward,
+  // the acceleration filter's (no lag in a turn).
+  const Eigen::Vector2d v_ff =
+      L.turn_velocity_feed_forward ? c.tracker.velocity_of_acceleration_filter().head<2>().eval()
+                                   : c.diag.platform_v_W_mps.head<2>().eval();
+  sp.v_W_mps = Eigen::Vector3d(v_ff.x(), v_ff.y(), platform_vz + d.vz_ff_mps);
   sp.a_W_mps2.z() = deck_ff.az_mps2;
   // The platform's horizontal acceleration fed forward (platform_accel_ff_gain, on by
   // default): a stop-and-go cart's 0.6 m/s^2 is otherwise met only by the velocity loop,

@@ -337,6 +337,13 @@ struct LandingParams {
   /// from 0 to 1 (m/s^2, >= the deadband; accel_feed_forward_share), so a cart's starts and
   /// stops (~0.6) pass whole.
   double platform_accel_ff_full_mps2{0.3};
+  /// The velocity the servo feeds forward horizontally: false, the constant-velocity filter's
+  /// (PlatformTracker::velocity()); true, the acceleration filter's
+  /// (PlatformTracker::velocity_of_acceleration_filter()), which does not lag a turn: on a
+  /// 20 m arc at 4.7 m/s the former is 0.15-0.19 m/s off across the track and holds the
+  /// vehicle ~14 cm outward (docs/results/fast-platforms.md). Off by default until the
+  /// envelope's gate has judged it.
+  bool turn_velocity_feed_forward{false};
   // touchdown (seed 000 section 3.3: < 5 cm and steady platform)
   double gear_height_m{0.25};             ///< CoM height above the surface when landed (m):
                                           ///< models/hexarotor.xml skids at -0.24 m, r 0.01 m
@@ -575,6 +582,8 @@ void visit_servo_and_touchdown_fields(V& v, LandingParams& p) {
     "Below this magnitude nothing of that acceleration is fed forward");
   v("platform_accel_ff_full_mps2", p.platform_accel_ff_full_mps2, range::any, "m/s^2",
     "From this magnitude on it is fed forward whole");
+  v("turn_velocity_feed_forward", p.turn_velocity_feed_forward, range::any, "",
+    "feed forward the acceleration filter's velocity (no lag in a turn)");
   v("gear_height_m", p.gear_height_m, range::non_negative, "m",
     "CoM height above the surface when landed");
   v("cut_height_m", p.cut_height_m, range::positive, "m", "cut when gear clearance is below this");

@@ -165,6 +165,10 @@ class PlatformTracker {
   // platform_jerk_noise_mps3) on the same dead-reckoned fixes as velocity(), which it leaves
   // alone; a fix the velocity filter rejects is not used, and it restarts with it.
   Eigen::Vector3d acceleration() const;
+  // That acceleration filter's velocity at the last fix (m/s, W; bounded like velocity()):
+  // unbiased while the acceleration is steady, as in a turn, where the constant-velocity
+  // filter's velocity lags.
+  Eigen::Vector3d velocity_of_acceleration_filter() const;
 
   // The platform now: the local fit's position (velocity_window_s) at the last fix moved on
   // by velocity() (latency compensation); the raw last fix when there are too few to fit.
