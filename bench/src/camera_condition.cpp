@@ -6,6 +6,7 @@
 #include <cmath>
 #include <ostream>
 #include <random>
+#include <string>
 #include <utility>
 
 #include "lander/bench/peer_detectors.h"
@@ -47,17 +48,18 @@ double row_offset_s(double row, int rows, double readout_s) {
 }
 
 // A method's detection in common form: pose, RMS reprojection, its points (P coordinates and
-// where they were found in the image) and its thread CPU time.
+// where they were found in the image), its thread CPU time, and why it found none.
 struct Found {
   bool detected{false};
   Eigen::Isometry3d X_CP{Eigen::Isometry3d::Identity()};
   double reproj_px{0.0};
   std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> points;
   double ms{0.0};
+  std::string status, reason;
 };
 
 Found from_rings(const RingDetection& d, const TargetGeometry& g, double ms) {
-  Found f{d.detected, d.X_CP, d.reproj_err_px, {}, ms};
+  Found f{d.detected, d.X_CP, d.reproj_err_px, {}, ms, to_string(d.status), d.reason};
   for (const auto& c : d.centres) {
     for (const auto& r : g.rings) {
       if (r.id == c.ring_id) f.points.emplace_back(r.centre_P_m, c.centre_image_px);
@@ -67,7 +69,7 @@ Found from_rings(const RingDetection& d, const TargetGeometry& g, double ms) {
 }
 
 Found from_square(const PeerDetection& d, const std::vector<Eigen::Vector2d>& corners_P, double ms) {
-  Found f{d.detected, d.X_CP, d.reproj_err_px, {}, ms};
+  Found f{d.detected, d.X_CP, d.reproj_err_px, {}, ms, "", d.reason};
   for (int i = 0; i < 4; ++i) f.points.emplace_back(corners_P[i], d.corners_px[i]);
   return f;
 }
@@ -123,19 +125,17 @@ class CameraCondition {
         miss["camera"] = k.name;
         miss["altitude_m"] = alt;
         miss["tilt_deg"] = tilt;
-        miss["status"] = last_status_;
-        miss["reason"] = last_reason_;
+        miss["status"] = found[0].status;
+        miss["reason"] = found[0].reason;
         misses_.push_back(std::move(miss));
       }
     }
   }
 
-  int views() const { return views_; }
   Json json() const;
   void print_table(std::ostream& out) const;
-  const Stats& ours_in_view(double alt, std::size_t camera) {
-    return groups_[camera][0].by_alt[alt];
-  }
+  // Ours through the last camera (the seed's: rolling shutter and JPEG) at `alt`, in view.
+  const Stats& ours_through_seed_camera(double alt) { return groups_.back()[0].by_alt[alt]; }
 
  private:
   static VisionParams single_frame(VisionParams v) {
@@ -165,8 +165,6 @@ class CameraCondition {
     double ms = 0.0;
     const RingDetection d = timed([&] { return ours_.detect(img[0]); }, ms);
     f[0] = from_rings(d, g_, ms);
-    last_status_ = to_string(d.status);
-    last_reason_ = d.reason;
     const PeerDetection dt = timed([&] { return apriltag_.detect(img[1], cam_, g_); }, ms);
     f[1] = from_square(dt, corners_P_, ms);
     const PeerDetection da = timed([&] { return detect_aruco(img[2], cam_, g_, false); }, ms);
@@ -219,9 +217,7 @@ class CameraCondition {
   std::vector<CameraKind> cameras_;
   std::vector<std::array<Groups, kMethods>> groups_;
   int views_ = 0, in_view_views_ = 0;
-  std::string last_status_, last_reason_;  // of ours' last detection
   Json misses_ = Json::array();            // ours' misses of in-view frames
-
 };
 
 Json CameraCondition::json() const {
@@ -336,7 +332,7 @@ Json run_camera_condition(const BenchRenderFn& render, const Eigen::Isometry3d& 
       }
     }
     if (progress) {
-      const Stats& s = cc.ours_in_view(alt, 3);
+      const Stats& s = cc.ours_through_seed_camera(alt);
       *progress << "bench estimator: camera condition, altitude " << alt << " m done, ours through the "
                 << "seed's camera " << s.detected << "/" << s.frames << " in view\n";
     }
