@@ -6,12 +6,14 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cctype>
 #include <cerrno>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <set>
+#include <thread>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -124,6 +126,23 @@ std::string shard_holders(const std::string& dir) {
   return out.empty() ? "runners of shards (their lock files are being taken)" : out;
 }
 
+// A shard runner's shared hold of DIR/runner.lock. Another shard runner started at the same
+// instant (a Slurm array's tasks) holds it exclusively for the moment it takes to clear a
+// stale record: waited for, up to kShardStartWait_s. A live runner of every run holds it for
+// its whole campaign: refused at once.
+constexpr double kShardStartWait_s = 5.0;
+
+bool share_when_free(int fd, const std::string& path) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(kShardStartWait_s);
+  while (!try_flock(fd, LOCK_SH, path)) {
+    const Holder h = read_holder(fd);
+    const bool whole_runner = h.pid > 0 && h.runs == "every run" && !holder_gone(h);
+    if (whole_runner || std::chrono::steady_clock::now() >= until) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return true;
+}
+
 std::string selection_text(const RunnerOptions& o) {
   std::string s = o.shard_count == 1 ? "" : fmt::format("shard {}/{}", o.shard_index, o.shard_count);
   if (!o.only.empty()) s += (s.empty() ? "" : ", ") + fmt::format("--only {} runs", o.only.size());
@@ -168,12 +187,13 @@ RunnerLock RunnerLock::acquire(const RunnerOptions& o) {
       return lock;
     }
     if (ftruncate(lock.dir_fd_, 0) != 0) throw ConfigError(dir_path + ": cannot clear: " + std::strerror(errno));
-    // Not atomic (flock(2)): a whole runner may take it in between, and is then named below.
-    if (!try_flock(lock.dir_fd_, LOCK_SH, dir_path)) busy(o.out_dir, describe(read_holder(lock.dir_fd_), dir_path));
+    // Not atomic (flock(2)): another runner may take it in between; a whole runner is then
+    // named below, a shard runner's moment is waited for.
+    if (!share_when_free(lock.dir_fd_, dir_path)) busy(o.out_dir, describe(read_holder(lock.dir_fd_), dir_path));
   } else if (whole) {
     const Holder h = read_holder(lock.dir_fd_);
     busy(o.out_dir, h.pid > 0 && !holder_gone(h) ? describe(h, dir_path) : shard_holders(o.out_dir));
-  } else if (!try_flock(lock.dir_fd_, LOCK_SH, dir_path)) {
+  } else if (!share_when_free(lock.dir_fd_, dir_path)) {
     busy(o.out_dir, describe(read_holder(lock.dir_fd_), dir_path));
   }
   // This shard's own lock, exclusive.

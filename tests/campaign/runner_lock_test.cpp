@@ -2,12 +2,18 @@
 // conflict even within one process, so a second acquire() here stands for a second runner.
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
+#include <sys/file.h>
 #include <unistd.h>
 
+#include <atomic>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <optional>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "lander/campaign/runner.h"
 #include "lander/campaign/runner_lock.h"
@@ -121,6 +127,73 @@ TEST(RunnerLock, RecordOfARunnerThatIsGoneIsTakenOverWithANote) {
   // Its own record replaced the old one.
   const std::string text = sim::read_file_text(d + "/runner.shard-1-of-3.lock", false);
   EXPECT_NE(text.find("\"pid\":" + std::to_string(getpid())), std::string::npos) << text;
+}
+
+// A Slurm array starts its tasks at the same instant: a shard runner that finds another shard
+// runner in its moment of exclusive hold (clearing a stale record) waits for it, where it
+// used to refuse (CI of stop 65: task 0 of 2 refused, its runs missing).
+TEST(RunnerLock, ShardRunnerWaitsForAnotherShardRunnersMomentOfExclusiveHold) {
+  const std::string d = fresh_dir("moment");
+  fs::create_directories(d);
+  // Another shard runner's moment: runner.lock held exclusively with an empty record.
+  const int other = open((d + "/runner.lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  ASSERT_GE(other, 0);
+  ASSERT_EQ(flock(other, LOCK_EX | LOCK_NB), 0);
+  constexpr auto kHold = std::chrono::milliseconds(300);
+  std::thread release([&] {
+    std::this_thread::sleep_for(kHold);
+    flock(other, LOCK_SH);  // what the other runner does next: keeps a shared hold
+  });
+  const auto t0 = std::chrono::steady_clock::now();
+  std::string msg;
+  {
+    std::optional<RunnerLock> l;
+    try {
+      l.emplace(RunnerLock::acquire(shard(d, 1, 2)));
+    } catch (const RunnerBusyError& e) {
+      msg = e.what();
+    }
+    release.join();
+    EXPECT_TRUE(msg.empty()) << msg;
+    ASSERT_TRUE(l.has_value());
+    EXPECT_EQ(l->path(), d + "/runner.shard-1-of-2.lock");
+    // It waited for the moment (less 50 ms: the thread's start and the clock's grain).
+    EXPECT_GE(std::chrono::steady_clock::now() - t0, kHold - std::chrono::milliseconds(50));
+  }
+  close(other);
+}
+
+// Many shard runners of one campaign started together: every one takes its lock.
+TEST(RunnerLock, ShardRunnersStartedTogetherAllTakeTheirLocks) {
+  constexpr int kShards = 8;
+  constexpr int kRounds = 25;
+  for (int round = 0; round < kRounds; ++round) {
+    const std::string d = fresh_dir("together_" + std::to_string(round));
+    std::atomic<int> ready{0};
+    std::atomic<int> taken{0};
+    std::vector<std::string> refusals(kShards);
+    std::vector<std::thread> runners;
+    for (int k = 0; k < kShards; ++k) {
+      runners.emplace_back([&, k] {
+        ++ready;
+        while (ready < kShards) std::this_thread::yield();  // all start at the same instant
+        try {
+          const RunnerLock l = RunnerLock::acquire(shard(d, k, kShards));
+          ++taken;
+          while (taken < kShards) std::this_thread::yield();  // held while the others take theirs
+        } catch (const RunnerBusyError& e) {
+          refusals[static_cast<std::size_t>(k)] = e.what();
+          ++taken;  // so that the others stop waiting; counted as a failure below
+        }
+      });
+    }
+    for (std::thread& t : runners) t.join();
+    for (int k = 0; k < kShards; ++k) {
+      EXPECT_TRUE(refusals[static_cast<std::size_t>(k)].empty())
+          << "round " << round << " shard " << k << ": " << refusals[static_cast<std::size_t>(k)];
+    }
+    fs::remove_all(d);
+  }
 }
 
 }  // namespace

@@ -187,9 +187,28 @@ for ((i = 0; i < n_tasks; i++)); do
 done
 ok "task outputs task-${job_id}_0..$((n_tasks - 1)).out exist"
 
+# sbatch --wait's exit code is not every task's (Slurm 22.05 returned 0 while task 0 of 2 had
+# refused to start, CI of stop 65): each task's own exit code, from scontrol (job records
+# stay MinJobAge, 300 s), and each task's last progress line.
+show_task_outputs() {
+  for f in "$tmp/sl/slurm/"task-*.out; do
+    echo "----- $f -----" >&2
+    tail -n 40 -- "$f" >&2
+  done
+}
+for ((i = 0; i < n_tasks; i++)); do
+  rec="$(scontrol -o show job "${job_id}_${i}" 2>&1 || true)"
+  code="$(grep -o ' ExitCode=[0-9]*:[0-9]*' <<<"$rec" | head -n 1 || true)"
+  [[ -n "$code" ]] || { show_task_outputs; summary_fail "scontrol has no exit code for task ${job_id}_${i}: $rec"; }
+  [[ "$code" == " ExitCode=0:0" ]] || { show_task_outputs; summary_fail "task ${job_id}_${i} ended with$code"; }
+  f="$tmp/sl/slurm/task-${job_id}_${i}.out"
+  grep -q -E ' ([0-9]+)/\1 runs done' "$f" || { show_task_outputs; summary_fail "$f: no 'K/K runs done' line"; }
+done
+ok "every task's own exit code is 0:0 and its runs are done"
+
 n_dirs="$(find "$tmp/sl/runs" -mindepth 1 -maxdepth 1 -type d 2>/dev/null | wc -l)"
 [[ "$n_dirs" -eq "$n_runs" ]] ||
-  summary_fail "$tmp/sl/runs has $n_dirs run directories, expected $n_runs: $(find "$tmp/sl/runs" -mindepth 1 -maxdepth 1 -printf '%f ' 2>&1)"
+  { show_task_outputs; summary_fail "$tmp/sl/runs has $n_dirs run directories, expected $n_runs: $(find "$tmp/sl/runs" -mindepth 1 -maxdepth 1 -printf '%f ' 2>&1)"; }
 ok "$n_runs run directories in sl/runs"
 
 # ---------------------------------------------------------------------------------------------

@@ -16,7 +16,8 @@
 // runner and a shard runner exclude each other, and runners of different shards (Slurm array
 // tasks, GNU parallel's --only lines) run side by side. Shards of different M (0/2 and 0/3)
 // are not told apart: they share runs, which the runner already tolerates (the first to
-// finish a run keeps it).
+// finish a run keeps it). Shard runners started at the same instant (a Slurm array's tasks)
+// wait for each other's moment of exclusive hold (up to 5 s) instead of refusing.
 #pragma once
 
 #include <string>
