@@ -6,6 +6,7 @@
 
 #include "internal.h"
 #include "lander/estimator/altitude_vision.h"
+#include "lander/estimator/camera_cv.h"
 #include "lander/estimator/motion_blur.h"
 #include "lander/estimator/target.h"
 
@@ -17,6 +18,11 @@ namespace {
 constexpr double kMinAxisCosine = 0.5;
 // Depths below this count as this: the camera at touchdown sits ~0.2 m above the platform.
 constexpr double kMinBlurDepthM = 0.2;
+// The target plane's least depth (min_target_depth_m) allows this many std of the fused height
+// and of the plane's prior height, and this much more (m): a sea state 4 deck heaves ~1 m
+// peak to peak, a cart's platform bounces centimetres.
+constexpr double kDepthSigmas = 3.0;
+constexpr double kDepthMargin_m = 1.0;
 // A platform fix older than this no longer gives the depth and the platform's velocity (the
 // tracker's relative vector is extrapolated from it); a second is ~30 frames.
 constexpr double kFreshFixS = 1.0;
@@ -26,8 +32,9 @@ static_assert(kRotorCount == ctl::kNumRotors, "the seam's rotor count is the mix
 }  // namespace
 
 // ------------------------------------------------------------------------------ frame job
-RingFrameJob::RingFrameJob(FlightStack& stack, const CameraFrameIn& frame, bool run_path, const Eigen::Vector2d& blur_px)
-    : stack_(stack), frame_(frame), run_path_(run_path), blur_px_(blur_px) {}
+RingFrameJob::RingFrameJob(FlightStack& stack, const CameraFrameIn& frame, bool run_path, const Eigen::Vector2d& blur_px,
+                           double min_depth_m)
+    : stack_(stack), frame_(frame), run_path_(run_path), blur_px_(blur_px), min_depth_m_(min_depth_m) {}
 
 void RingFrameJob::process() {
   const double t_mid = frame_.exposure.mid();
@@ -40,7 +47,7 @@ void RingFrameJob::process() {
     const cv::Mat bgr = as_mat(frame_.image);
     const auto t0 = Clock::now();
     const double c0 = thread_cpu_ms();
-    const RingDetection det = stack_.detect(bgr, blur_px_);
+    const RingDetection det = stack_.detect(bgr, blur_px_, min_depth_m_);
     const double cpu_ms = thread_cpu_ms() - c0, wall_ms = ms_since(t0);
     vr_ = stack_.vision_result(det, t_mid);
     report_ = detection_report(det, stack_.mount().X_BC());
@@ -88,7 +95,8 @@ std::unique_ptr<FrameJob> FlightStack::begin_frame(const CameraFrameIn& frame) {
   // The exposure as the flight software reads the driver's metadata (flight.camera).
   CameraFrameIn believed = frame;
   believed.exposure = config_.camera.believed_exposure(frame.exposure, frame.stamp_s);
-  return std::make_unique<RingFrameJob>(*this, believed, wants_path(), predicted_blur_px(believed.exposure));
+  return std::make_unique<RingFrameJob>(*this, believed, wants_path(), predicted_blur_px(believed.exposure),
+                                        min_target_depth_m());
 }
 
 void FlightStack::deliver_frame(std::unique_ptr<FrameJob> job) {
@@ -195,6 +203,20 @@ Eigen::Vector2d FlightStack::predicted_blur_px(const ExposureInterval& exposure)
   Z = std::max(Z, kMinBlurDepthM);
   const Eigen::Vector2d blur = axis_point_motion_blur_px(w_C, v_C, Z, config_.camera.fx_px, config_.camera.fy_px, T);
   return blur.allFinite() ? blur : Eigen::Vector2d::Zero();
+}
+
+double FlightStack::min_target_depth_m() const {
+  const NavState nav = nav_state();
+  if (!config_.estimator.vision.predict_min_depth || !nav.valid || !est_.altitude_started()) return 0.0;
+  const AltitudeEstimate alt = est_.altitude();
+  const AltitudeFusionParams& ap = config_.estimator.altitude;
+  const Eigen::Isometry3d X_BC = config_.mount.X_BC();
+  const Eigen::Matrix3d R_WB = nav.q_WB.toRotationMatrix();
+  const Eigen::Matrix3d R_WC = R_WB * X_BC.linear();
+  const double z_camera = alt.z_W_m + (R_WB * X_BC.translation()).z();
+  const double std_m = std::sqrt(std::max(0.0, alt.var_m2) + ap.platform_height_std_m * ap.platform_height_std_m);
+  const double dh = z_camera - ap.platform_height_m - kDepthSigmas * std_m - kDepthMargin_m;
+  return least_plane_depth_m(config_.camera, R_WC, dh);
 }
 
 bool FlightStack::wants_path() const {

@@ -32,6 +32,7 @@ struct SavedFrame {
   int index{0};
   std::string png;
   Eigen::Vector2d blur_px{Eigen::Vector2d::Zero()};
+  double min_depth_m{0.0};  ///< the stack's least target depth (0: unknown)
 };
 
 // One frame's detection as the bench's CSV holds it.
@@ -80,6 +81,8 @@ std::vector<SavedFrame> saved_frames(const std::string& dir, const std::string& 
     f.index = static_cast<int>(number_cell(t, r, "frame"));
     f.png = fmt::format("{}/frame_{:05d}.png", dir, f.index);
     f.blur_px = {number_cell(t, r, "predicted_blur_x_px"), number_cell(t, r, "predicted_blur_y_px")};
+    // Profiles written before the depth hint have no column: unknown, as those runs had it.
+    if (t.column("min_depth_m") >= 0) f.min_depth_m = number_cell(t, r, "min_depth_m");
     if (!std::filesystem::is_regular_file(f.png)) {
       throw ConfigError(fmt::format("{}:{}: frame {} has no image {}", t.source, r.line, f.index, f.png));
     }
@@ -121,7 +124,7 @@ std::vector<FrameResult> detect_all(const sim::Scenario& s, const std::vector<Sa
     const cv::Mat image = cv::imread(f.png, cv::IMREAD_COLOR);
     if (image.empty()) throw ConfigError("cannot read image: " + f.png);
     const double c0 = thread_cpu_ms();
-    const RingDetection d = detector.detect(image, f.blur_px);
+    const RingDetection d = detector.detect(image, f.blur_px, f.min_depth_m);
     out.push_back(result_of(f.index, d, thread_cpu_ms() - c0));
   }
   return out;

@@ -193,7 +193,8 @@ RingDetection timed(RingDetection d, std::chrono::steady_clock::time_point t0) {
 
 }  // namespace
 
-RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vector2d& blur_px) {
+RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vector2d& blur_px,
+                                         double min_depth_m) {
   const auto t0 = std::chrono::steady_clock::now();
   if (const auto bad = unusable_image(image, camera_)) {
     RingDetection d;
@@ -204,6 +205,7 @@ RingDetection RingTargetDetector::detect(const cv::Mat& image, const Eigen::Vect
   // frame stands alone (single images, the estimator benchmark's independent views).
   const Eigen::Isometry3d* track = params_.tracking && have_prediction_ ? &X_CP_pred_ : nullptr;
   FrameContext f{image, camera_, target_, params_, blur_px, cv::Rect(0, 0, image.cols, image.rows)};
+  f.min_depth_m = std::isfinite(min_depth_m) && min_depth_m > 0.0 ? min_depth_m : 0.0;
   // The rings: the predicted region, then the passes while no pose, and the code map (first
   // at close range); then the poses combined, then the checks every pose must pass.
   vision_internal::Found found;

@@ -155,6 +155,7 @@ struct FrameContext {
   const VisionParams& p;
   Eigen::Vector2d blur_px;  ///< the caller's predicted blur (detect())
   cv::Rect full;            ///< the whole frame
+  double min_depth_m{0.0};  ///< the caller's least depth of the target's plane (detect()), 0 unknown
   cv::Mat grey{};           ///< 8-bit grey, converted at least where a pass needed it
   bool grey_full{false};    ///< the whole frame is in `grey` (no more conversion)
   cv::Mat sharp{};          ///< the deconvolved frame, when the deblur pass ran

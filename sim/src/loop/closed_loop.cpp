@@ -259,7 +259,8 @@ std::unique_ptr<CsvWriter> open_vision_profile(const RunOptions& o) {
       o.vision_profile_csv, std::vector<std::string>{"frame", "t_s", "height_m", "detected", "status", "tracking_roi",
                                                      "code_searched", "rings", "predicted_blur_px", "predicted_blur_x_px", "predicted_blur_y_px",
                                                      "deblurred", "vision_height_m",
-                                                     "detector_ms", "detector_cpu_ms", "path_ms", "zoomed", "by_layout"});
+                                                     "detector_ms", "detector_cpu_ms", "path_ms", "zoomed", "by_layout",
+                                                     "min_depth_m"});
 }
 
 }  // namespace
@@ -476,6 +477,8 @@ struct ClosedLoop::Impl {
     profile->num(r.vision_height_m, 4);
     profile->num(r.detector_ms, 3).num(r.detector_cpu_ms, 3).num(r.path_ms, 3);
     profile->integer(r.zoomed ? 1 : 0).integer(r.by_layout ? 1 : 0);
+    // The least depth the stack told its detector (0: unknown): `lander bench frames` too.
+    profile->num(ring ? ring->min_depth_m() : kNaN, 17);
     profile->end_row();
   }
 

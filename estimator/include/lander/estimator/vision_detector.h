@@ -182,7 +182,12 @@ class RingTargetDetector {
   // y down; the blur's length and direction, e.g. from the vehicle's rates and velocity and
   // the exposure time), zero when unknown. When the plain passes give no pose and the blur is
   // at least deblur_min_px, the frame is searched again deconvolved with it.
-  RingDetection detect(const cv::Mat& image, const Eigen::Vector2d& blur_px = Eigen::Vector2d::Zero());
+  // `min_depth_m`: the least depth along the optical axis at which the target's plane can be
+  // in this frame (m), from the caller's own height and attitude estimate; 0 when unknown.
+  // Without a pose or a track, the code map is not searched where its cells would be smaller
+  // than code_min_cell_px at that depth (it cannot be read there).
+  RingDetection detect(const cv::Mat& image, const Eigen::Vector2d& blur_px = Eigen::Vector2d::Zero(),
+                       double min_depth_m = 0.0);
   // Forgets the prediction and the last keyframe.
   void reset();
 

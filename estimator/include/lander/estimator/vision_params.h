@@ -144,6 +144,12 @@ struct VisionParams {
   bool predict_blur{true};           ///< the flight stack predicts each frame's blur from its
                                      ///< own motion estimate and the exposure time and hands it
                                      ///< to the detector (FlightStack::predicted_blur_px)
+  bool predict_min_depth{true};      ///< the flight stack hands the detector the least depth
+                                     ///< the target's plane can be at in each frame, from its
+                                     ///< fused height and attitude (FlightStack::
+                                     ///< min_target_depth_m): without a pose or a track the code
+                                     ///< map is not searched where its cells would be under
+                                     ///< code_min_cell_px at that depth (above ~2 m)
   double deblur_min_px{4.0};         ///< a predicted blur at least this long (px) gives a frame
                                      ///< with no pose a second pass on the frame Wiener-
                                      ///< deconvolved with that blur (a line PSF); 0 = never.
@@ -332,6 +338,8 @@ void visit_fallback_passes_fields(V& v, VisionParams& p) {
     "with a rolling shutter, a pose is stamped at its platform centre's row");
   v("predict_blur", p.predict_blur, range::any, "",
     "the flight stack predicts each frame's blur from its own motion");
+  v("predict_min_depth", p.predict_min_depth, range::any, "",
+    "the flight stack hands the detector the least depth the target's plane can be at");
   v("deblur_min_px", p.deblur_min_px, range::closed(0, 200), "px",
     "a predicted blur at least this long gives a frame with no pose");
   v("deblur_noise_ratio", p.deblur_noise_ratio, range::open_closed(0, 1), "",

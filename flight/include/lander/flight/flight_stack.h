@@ -43,19 +43,22 @@ class FlightStack;
 // deliver (VisionResult) once processed.
 class RingFrameJob final : public FrameJob {
  public:
-  RingFrameJob(FlightStack& stack, const CameraFrameIn& frame, bool run_path, const Eigen::Vector2d& blur_px);
+  RingFrameJob(FlightStack& stack, const CameraFrameIn& frame, bool run_path, const Eigen::Vector2d& blur_px,
+               double min_depth_m = 0.0);
   void process() override;
   FrameReport report() const override { return report_; }
   bool inject(const VisionFault& fault) override;
   // The result as it will be delivered (after any injected fault).
   const VisionResult& result() const { return vr_; }
   const Eigen::Vector2d& predicted_blur_px() const { return blur_px_; }
+  double min_depth_m() const { return min_depth_m_; }
 
  private:
   FlightStack& stack_;
   CameraFrameIn frame_;
   bool run_path_;
   Eigen::Vector2d blur_px_;
+  double min_depth_m_;
   VisionResult vr_;
   FrameReport report_;
 };
@@ -90,8 +93,9 @@ class FlightStack final : public FlightSoftware {
   // detector undistorts with the configuration's calibration). Stateful (tracking window,
   // keyframes); frames in order. Never throws for bad image content. `blur_px`: the image
   // motion expected over the frame's exposure (predicted_blur_px()), zero for none.
-  RingDetection detect(const cv::Mat& bgr, const Eigen::Vector2d& blur_px = Eigen::Vector2d::Zero()) {
-    return detector_.detect(bgr, blur_px);
+  RingDetection detect(const cv::Mat& bgr, const Eigen::Vector2d& blur_px = Eigen::Vector2d::Zero(),
+                       double min_depth_m = 0.0) {
+    return detector_.detect(bgr, blur_px, min_depth_m);
   }
   // The motion blur the flight software expects in a frame exposed over `exposure` (its
   // duration is the camera driver's per-frame metadata), from its own state only: the
@@ -102,6 +106,14 @@ class FlightStack final : public FlightSoftware {
   // state, or when estimator.vision.predict_blur is off. Call on the loop's thread when the
   // frame arrives.
   Eigen::Vector2d predicted_blur_px(const ExposureInterval& exposure) const;
+  // The least depth along the optical axis at which the target's plane can be in the next
+  // frame (m), from the flight software's own state: the camera's fused height above W less
+  // the plane's prior height (estimator.altitude.platform_height_m), less kDepthSigmas of both
+  // heights' std and kDepthMargin_m (a heaving deck, the cart's bounce), seen through the
+  // calibrated mount and the image's corners (over a plane, the least depth is at a corner).
+  // 0 (unknown) while the altitude fusion has not started, when the plane is not below the
+  // camera or not in view, or when estimator.vision.predict_min_depth is off.
+  double min_target_depth_m() const;
   // The path stage (seed 003 eq. 6-9) on the same frame. It runs only while the controller
   // can use it (wants_path(): search and follow_path, both stages enabled).
   bool wants_path() const;
