@@ -65,8 +65,10 @@ class Sim:
     what the flight software was given since the last step, "frame": {"index", "t_start_s",
     "t_end_s", "readout_s", "image"} or None} (t_start_s: the first row's exposure start,
     t_end_s: the last row's end; readout_s > 0 with camera.rolling_shutter_readout_ms); the image is an H x W x 3 BGR uint8 array sharing the
-    simulator's pixels (no copy, read-only). info["truth"]: X_WB, X_WP, X_WC, X_CP (4x4), the
-    vehicle's velocities, the cart's rates: never given to the flight software. When the run
+    simulator's pixels (no copy, read-only). info["truth"]: X_WB, X_WP, X_WC, X_CP (4x4, now), with a
+    frame X_WC_mid_exposure, X_WP_mid_exposure and X_CP_mid_exposure (at its exposure's middle:
+    the label of its pixels), the vehicle's velocities, the cart's rates: never given to the
+    flight software. When the run
     has ended, obs is None, done is True and info["summary"] is summary.json.
 
     With the scenario's own flight software (flight=None, action="none") the files a stepped

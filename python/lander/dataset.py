@@ -87,7 +87,7 @@ def write(scenario, out, *, every_n_frames=10, seed=None, max_frames=None, overr
             f = obs["frame"]
             if f is None or f["index"] % every_n_frames:
                 continue
-            X_CP = np.linalg.inv(info["truth"]["X_WC_mid_exposure"]) @ info["truth"]["X_WP"]
+            X_CP = info["truth"]["X_CP_mid_exposure"]
             name = f"frames/frame_{f['index']:05d}.png"
             _lander.write_image(os.path.join(out, name), f["image"])
             rec = {"frame": f["index"], "t_start_s": f["t_start_s"], "t_end_s": f["t_end_s"], "image": name,

@@ -398,7 +398,12 @@ class Sim {
     truth["X_WP"] = Eigen::Matrix4d(snap_.X_WP.matrix());
     truth["X_WC"] = Eigen::Matrix4d(snap_.X_WC.matrix());
     truth["X_CP"] = Eigen::Matrix4d((snap_.X_WC.inverse() * snap_.X_WP).matrix());
-    if (snap_.frame) truth["X_WC_mid_exposure"] = Eigen::Matrix4d(snap_.frame->X_WC_true.matrix());
+    if (snap_.frame) {
+      // The frame's truth at its exposure's middle (the label of its pixels).
+      truth["X_WC_mid_exposure"] = Eigen::Matrix4d(snap_.frame->X_WC_true.matrix());
+      truth["X_WP_mid_exposure"] = Eigen::Matrix4d(snap_.frame->X_WP_true.matrix());
+      truth["X_CP_mid_exposure"] = Eigen::Matrix4d((snap_.frame->X_WC_true.inverse() * snap_.frame->X_WP_true).matrix());
+    }
     truth["v_WB_mps"] = snap_.v_WB;
     truth["omega_B_radps"] = snap_.omega_B;
     truth["cart_qd"] = snap_.cart_qd;

@@ -260,7 +260,9 @@ std::unique_ptr<CsvWriter> open_vision_profile(const RunOptions& o) {
                                                      "code_searched", "rings", "predicted_blur_px", "predicted_blur_x_px", "predicted_blur_y_px",
                                                      "deblurred", "vision_height_m",
                                                      "detector_ms", "detector_cpu_ms", "path_ms", "zoomed", "by_layout",
-                                                     "min_depth_m"});
+                                                     "min_depth_m",
+                                                     "true_x_CP_m", "true_y_CP_m", "true_z_CP_m", "true_qw_CP", "true_qx_CP", "true_qy_CP", "true_qz_CP",
+                                                     "det_x_CP_m", "det_y_CP_m", "det_z_CP_m", "det_qw_CP", "det_qx_CP", "det_qy_CP", "det_qz_CP"});
 }
 
 }  // namespace
@@ -464,6 +466,15 @@ struct ClosedLoop::Impl {
     vision_q.push(std::move(d), deliver_t);
   }
 
+  // A pose's translation (m) and unit quaternion (w, x, y, z) into the profile row.
+  void write_pose(const Eigen::Isometry3d& X) {
+    const Eigen::Vector3d p = X.translation();
+    Eigen::Quaterniond q(X.linear());
+    if (q.w() < 0) q.coeffs() *= -1.0;  // one of the two signs: w >= 0
+    for (int i = 0; i < 3; ++i) profile->num(p(i), 6);
+    for (double c : {q.w(), q.x(), q.y(), q.z()}) profile->num(c, 9);
+  }
+
   void write_profile_row(const VisionJob& j, const flight::FrameReport& r) {
     const auto* ring = dynamic_cast<const flight::RingFrameJob*>(j.work.get());
     constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -479,6 +490,11 @@ struct ClosedLoop::Impl {
     profile->integer(r.zoomed ? 1 : 0).integer(r.by_layout ? 1 : 0);
     // The least depth the stack told its detector (0: unknown): `lander bench frames` too.
     profile->num(ring ? ring->min_depth_m() : kNaN, 17);
+    // The platform in the camera at the exposure's middle (truth), and as the flight software's
+    // pose has it (NaN without one): a detector's error frame by frame.
+    write_pose(j.frame.X_WC_true.inverse() * j.frame.X_WP_true);
+    const bool pose = ring != nullptr && ring->result().obs.detected;
+    write_pose(pose ? ring->result().obs.X_CP : Eigen::Isometry3d(Eigen::Matrix4d::Constant(kNaN)));
     profile->end_row();
   }
 

@@ -395,6 +395,11 @@ std::optional<CameraFrame> CameraRig::advance(double t_s, World& world, Renderer
   const CameraParams& p = pipeline_.params();
   if (!exposing_ && t_s + 1e-9 >= next_frame_t_) begin_exposure(t_s, world);
   if (!exposing_) return std::nullopt;
+  if (!mid_taken_ && t_s + 1e-9 >= t_mid_) {
+    X_WC_mid_ = world.X_WC();
+    X_WP_mid_ = world.X_WP();
+    mid_taken_ = true;
+  }
   // The renders that fall now: the whole frame, or (rolling shutter) only its band's rows.
   while (next_sample_ < planned_.size() && planned_[next_sample_].t_s <= t_s + 1e-9) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -410,7 +415,8 @@ std::optional<CameraFrame> CameraRig::advance(double t_s, World& world, Renderer
       t_s + 1e-9 < next_frame_t_ + p.exposure_s + p.rolling_shutter_readout_s) {
     return std::nullopt;
   }
-  CameraFrame frame = pipeline_.finish(frame_index_, world.X_WC());
+  CameraFrame frame = pipeline_.finish(frame_index_, X_WC_mid_);
+  frame.X_WP_true = X_WP_mid_;
   frame.renders = frame_renders_;
   exposing_ = false;
   ++frame_index_;
@@ -423,6 +429,8 @@ std::optional<CameraFrame> CameraRig::advance(double t_s, World& world, Renderer
 void CameraRig::begin_exposure(double t_s, const World& world) {
   const CameraParams& p = pipeline_.params();
   exposing_ = true;
+  mid_taken_ = false;
+  t_mid_ = t_s + 0.5 * (p.exposure_s + p.rolling_shutter_readout_s);
   const bool rolling = p.rolling_shutter_readout_s > 0;
   const ExposureMotion motion = p.adaptive_blur() || rolling ? exposure_motion(world, p.intrinsics) : ExposureMotion{};
   const int n_blur = p.adaptive_blur() ? blur_renders(p, image_motion_px(p.intrinsics, motion, p.exposure_s))

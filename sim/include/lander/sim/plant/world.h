@@ -114,8 +114,9 @@ class World {
   Eigen::Vector3d v_WB() const;    ///< vehicle linear velocity in W (m/s)
   Eigen::Vector3d omega_B() const; ///< vehicle angular velocity in B (rad/s)
 
-  // Kinematic placement (scripted runs, tests): sets the free joint state and recomputes
-  // positions (mj_forward). v and omega only matter to sensors that read velocities.
+  // Kinematic placement (scripted runs, tests): sets the free joint state only; forward()
+  // then recomputes the positions that X_WC(), X_WP() and the renders read. v and omega only
+  // matter to sensors that read velocities.
   void set_vehicle_state(const Eigen::Isometry3d& X_WB, const Eigen::Vector3d& v_W,
                          const Eigen::Vector3d& omega_B);
   // Cart joint state: position (x, y) in W (m), yaw (rad), and rates.

@@ -181,7 +181,10 @@ struct CameraFrame {
   cv::Mat bgr;                         ///< CV_8UC3, row 0 = image top
   ExposureInterval exposure;           ///< sim time (s)
   int renders{1};                      ///< renders averaged into it (motion blur)
-  Eigen::Isometry3d X_WC_true{Eigen::Isometry3d::Identity()};  ///< at mid-exposure (truth)
+  /// Truth at the exposure's middle (ExposureInterval::mid(), the first physics state at or
+  /// after it): the camera's and the platform's poses.
+  Eigen::Isometry3d X_WC_true{Eigen::Isometry3d::Identity()};
+  Eigen::Isometry3d X_WP_true{Eigen::Isometry3d::Identity()};
 };
 
 // Writes `frame` as `dir`/frame_NNNNN.png (lossless, atomically). Throws OutputError.
@@ -304,6 +307,10 @@ class CameraRig {
   double next_frame_t_ = 0.0;
   bool exposing_ = false;
   std::vector<ExposureRender> planned_;  // this exposure's renders (exposure_renders)
+  // Truth at the exposure's middle, taken at the first physics state at or after it.
+  bool mid_taken_ = false;
+  double t_mid_ = 0.0;
+  Eigen::Isometry3d X_WC_mid_{Eigen::Isometry3d::Identity()}, X_WP_mid_{Eigen::Isometry3d::Identity()};
   int frame_renders_ = 0;    // renders of the frame being exposed
   std::size_t next_sample_ = 0;
   long renders_ = 0;
