@@ -1,4 +1,7 @@
 // `lander run SCENARIO.yaml --out DIR [--video] [--quiet] [--vision-schedule auto|serial|overlap]`
+// `--frames-csv F`: each camera frame's vision stage, as `lander bench loop --frames-csv` writes
+// it (the true and the detected platform pose at the exposure's middle among its columns: the
+// data `python3 -m lander.surrogate fit` reads).
 #include <csignal>
 #include <cstdlib>
 #include <filesystem>
@@ -40,12 +43,14 @@ int python_run(const Args& args) {
 }
 
 int run(const Args& args) {
-  ArgParser a(args, {"out", "seed", "record-vision", "replay-vision", "save-frames", "vision-schedule", "flight-plugin"},
+  ArgParser a(args,
+              {"out", "seed", "record-vision", "replay-vision", "save-frames", "frames-csv", "vision-schedule",
+               "flight-plugin"},
               {"video", "quiet"});
   if (a.positional().size() != 1) {
     throw UsageError(
         "usage: lander run SCENARIO.yaml --out DIR [--seed N] [--video] [--quiet] "
-        "[--record-vision FILE | --replay-vision FILE] [--save-frames DIR] "
+        "[--record-vision FILE | --replay-vision FILE] [--save-frames DIR] [--frames-csv F] "
         "[--vision-schedule auto|serial|overlap] [--flight-plugin LIB.so]");
   }
   if (a.has("record-vision") && a.has("replay-vision")) {
@@ -66,6 +71,7 @@ int run(const Args& args) {
   o.record_vision = a.value("record-vision");
   o.replay_vision = a.value("replay-vision");
   o.save_frames_dir = a.value("save-frames");
+  o.vision_profile_csv = a.value("frames-csv");
   // The estimator on a worker thread or in line: same outputs bit for bit (README, Performance).
   o.vision_schedule = a.choice("vision-schedule", "auto", sim::kVisionSchedules);
   const nlohmann::ordered_json summary = sim::run_scenario(s, o);
@@ -80,8 +86,9 @@ int run(const Args& args) {
 
 const LanderCommand reg("run",
                         "run SCENARIO.yaml --out DIR [--seed N] [--video] [--quiet] "
-                        "[--record-vision F | --replay-vision F] [--save-frames DIR] [--vision-schedule S] "
-                        "[--flight-plugin LIB.so]: run one scenario (with a plugin's flight software)",
+                        "[--record-vision F | --replay-vision F] [--save-frames DIR] [--frames-csv F] "
+                        "[--vision-schedule S] [--flight-plugin LIB.so]: run one scenario (with a plugin's flight "
+                        "software)",
                         Kind::Command, run);
 
 }  // namespace
