@@ -82,6 +82,7 @@ FlightStack::FlightStack(const FlightConfig& config, std::unique_ptr<VisionDetec
       detector_(config_.camera, TargetGeometry::load(config_.target_path), config_.estimator.vision),
       user_detector_(std::move(detector)),
       path_extractor_(config_.camera, config_.estimator.path),
+      border_rays_(image_border_rays(config_.camera)),
       est_(config_.estimator),
       controller_(config_.controller, config_.mount) {}
 
@@ -216,7 +217,7 @@ double FlightStack::min_target_depth_m() const {
   const double z_camera = alt.z_W_m + (R_WB * X_BC.translation()).z();
   const double std_m = std::sqrt(std::max(0.0, alt.var_m2) + ap.platform_height_std_m * ap.platform_height_std_m);
   const double dh = z_camera - ap.platform_height_m - kDepthSigmas * std_m - kDepthMargin_m;
-  return least_plane_depth_m(config_.camera, R_WC, dh);
+  return least_plane_depth_m(border_rays_, R_WC, dh);
 }
 
 bool FlightStack::wants_path() const {

@@ -131,13 +131,19 @@ def _error_autocorrelation(f: pd.DataFrame) -> dict:
     return out
 
 
+def _cell_key(depth_bin: int, in_view: int, blur_bin: int) -> tuple:
+    """A cell's bounds: ((depth from, to), in view, (blur from, to)), as a cell dict's _key()."""
+    return ((DEPTH_EDGES_M[depth_bin], DEPTH_EDGES_M[depth_bin + 1]), bool(in_view),
+            (BLUR_EDGES_PX[blur_bin], BLUR_EDGES_PX[blur_bin + 1]))
+
+
 def fit_cells(f: pd.DataFrame) -> list[dict]:
     cells = []
-    for (db, iv, bb), g in f.groupby(["depth_bin", "in_view", "blur_bin"]):
+    for bins, g in f.groupby(["depth_bin", "in_view", "blur_bin"]):
+        depth, in_view, blur = _cell_key(*bins)
         n, k = len(g), int(g["detected"].sum())
         lo, hi = wilson(k, n)
-        cell = {"depth_m": [DEPTH_EDGES_M[db], DEPTH_EDGES_M[db + 1]], "in_view": bool(iv),
-                "blur_px": [BLUR_EDGES_PX[bb], BLUR_EDGES_PX[bb + 1]], "frames": n, "detections": k,
+        cell = {"depth_m": list(depth), "in_view": in_view, "blur_px": list(blur), "frames": n, "detections": k,
                 "p_detect": k / n, "p_detect_95": [lo, hi], "persistence": _persistence(g)}
         e = g.loc[g["detected"] == 1, ["ex", "ey", "ez"]].dropna()
         if len(e) >= MIN_ERRORS:
@@ -163,11 +169,11 @@ def held_back_check(train: list[dict], test: list[dict]) -> dict:
     for c in test:
         t = fitted.get(_key(c))
         if t is None:
-            rows.append({"cell": list(_key(c)), "frames": c["frames"], "fitted": None})
+            rows.append({"cell": [c["depth_m"], c["in_view"], c["blur_px"]], "frames": c["frames"], "fitted": None})
             continue
         lo, hi = wilson(c["detections"], c["frames"])
         agrees = not (hi < t["p_detect_95"][0] or lo > t["p_detect_95"][1])
-        rows.append({"cell": [list(_key(c)[0]), _key(c)[1], list(_key(c)[2])], "frames": c["frames"],
+        rows.append({"cell": [c["depth_m"], c["in_view"], c["blur_px"]], "frames": c["frames"],
                      "p_detect_fitted": t["p_detect"], "p_detect_held_back": c["p_detect"], "agrees": agrees})
     return {"cells": rows, "cells_agreeing": sum(1 for r in rows if r.get("agrees")),
             "cells_compared": sum(1 for r in rows if "agrees" in r)}
@@ -179,9 +185,8 @@ def error_coverage(train_f: pd.DataFrame, test_f: pd.DataFrame, train_cells: lis
     fitted = {_key(c): c for c in train_cells if "position_error_m" in c}
     hits = {a: [0, 0] for a in "xyz"}
     det = test_f[test_f["detected"] == 1]
-    for (db, iv, bb), g in det.groupby(["depth_bin", "in_view", "blur_bin"]):
-        key = ((DEPTH_EDGES_M[db], DEPTH_EDGES_M[db + 1]), bool(iv), (BLUR_EDGES_PX[bb], BLUR_EDGES_PX[bb + 1]))
-        c = fitted.get(key)
+    for bins, g in det.groupby(["depth_bin", "in_view", "blur_bin"]):
+        c = fitted.get(_cell_key(*bins))
         if c is None:
             continue
         for i, a in enumerate("xyz"):

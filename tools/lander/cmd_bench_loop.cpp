@@ -7,8 +7,9 @@
 // stage's cost and result per camera frame (with the predicted blur, the least target depth
 // the stack told its detector, the detection's height next to the true height, and the
 // platform's pose in the camera at the exposure's middle, true_* from the truth and det_* from
-// the detection: a detector's error frame by frame). --save-frames DIR: every camera frame as PNG, for `lander bench
-// frames` (the detector alone on the same frames with the same predicted blur).
+// the detection: a detector's error frame by frame). --save-frames DIR: every camera frame as
+// PNG, for `lander bench frames` (the detector alone on the same frames with the same
+// predicted blur).
 #include <fstream>
 #include <iostream>
 

@@ -551,16 +551,14 @@ std::optional<cv::Rect> code_region(const Eigen::Isometry3d& X_CP, const CameraM
 // its cells smaller than code_min_cell_px.
 namespace {
 
-// Whether the code map is searched in this frame under the pose `ref` (none: unknown range):
-// it is on, the frame can hold it, and the pose does not show its cells smaller than
-// code_min_cell_px.
 // The code's cells at depth z (m) are at least code_min_cell_px across.
 bool cells_readable_at(const FrameContext& f, double z) {
   return z > 0 && f.target.code.cell_m * f.cam.fx_px / z >= f.p.code_min_cell_px;
 }
 
-// Worth searching: at the pose's (or track's) depth; without either, at the least depth the
-// caller says the plane can be at (anywhere when it does not say).
+// Whether the code map is searched in this frame under the pose `ref`: it is on, the frame can
+// hold it, and its cells are readable at the pose's (or track's) depth; without a pose, at the
+// least depth the caller says the plane can be at (anywhere when it does not say).
 bool code_searchable(const FrameContext& f, const Eigen::Isometry3d* ref) {
   if (!(f.p.code_enabled && f.target.code.cells > 0 && f.big_enough())) return false;
   if (ref != nullptr) return cells_readable_at(f, ref->translation().z());

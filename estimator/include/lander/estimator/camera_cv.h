@@ -34,27 +34,42 @@ inline Eigen::Isometry3d pose_from_cv(const cv::Mat& rvec, const cv::Mat& tvec) 
   return X;
 }
 
-// The least depth along the optical axis (m) at which a horizontal plane `height_m` below the
-// camera appears in its image, the camera at R_WC (W's z up): over a plane the depth of a
-// pixel's point is height_m over its ray's downward component (the ray at unit depth). That
-// component is linear in the undistorted pixel, so its largest value over the image is on the
-// image's border: sampled there, kBorderSamples points an edge, undistorted with the
-// calibration (the border bows under distortion). 0 when height_m is not positive or the
-// plane is not in view.
-inline double least_plane_depth_m(const CameraModel& cam, const Eigen::Matrix3d& R_WC, double height_m) {
+// The image's border as camera rays at unit depth (x, y, 1), undistorted with the
+// calibration (the border bows under distortion): kBorderSamples points an edge. Depends on
+// the camera alone: computed once per camera.
+inline std::vector<Eigen::Vector3d> image_border_rays(const CameraModel& cam) {
   constexpr int kBorderSamples = 9;
-  if (!(height_m > 0.0)) return 0.0;
   const double W = cam.width_px - 1.0, H = cam.height_px - 1.0;
   std::vector<cv::Point2d> border;
   for (int i = 0; i < kBorderSamples; ++i) {
     const double s = static_cast<double>(i) / (kBorderSamples - 1);
     border.insert(border.end(), {{s * W, 0.0}, {s * W, H}, {0.0, s * H}, {W, s * H}});
   }
-  std::vector<cv::Point2d> rays;
-  cv::undistortPoints(border, rays, camera_matrix_cv(cam), dist_coeffs_cv(cam));
+  std::vector<cv::Point2d> undistorted;
+  cv::undistortPoints(border, undistorted, camera_matrix_cv(cam), dist_coeffs_cv(cam));
+  std::vector<Eigen::Vector3d> rays;
+  rays.reserve(undistorted.size());
+  for (const cv::Point2d& r : undistorted) rays.emplace_back(r.x, r.y, 1.0);
+  return rays;
+}
+
+// The least depth along the optical axis (m) at which a horizontal plane `height_m` below the
+// camera appears in its image, the camera at R_WC (W's z up): over a plane the depth of a
+// pixel's point is height_m over its ray's downward component (the ray at unit depth). That
+// component is linear in the undistorted pixel, so its largest value over the image is on the
+// image's border (`border_rays`, image_border_rays()). 0 when height_m is not positive or the
+// plane is not in view.
+inline double least_plane_depth_m(const std::vector<Eigen::Vector3d>& border_rays, const Eigen::Matrix3d& R_WC,
+                                  double height_m) {
+  if (!(height_m > 0.0)) return 0.0;
   double max_down = 0.0;
-  for (const cv::Point2d& r : rays) max_down = std::max(max_down, -(R_WC * Eigen::Vector3d(r.x, r.y, 1.0)).z());
+  for (const Eigen::Vector3d& r : border_rays) max_down = std::max(max_down, -(R_WC * r).z());
   return max_down > 0.0 ? height_m / max_down : 0.0;
+}
+
+// The same for a camera whose border rays are not kept.
+inline double least_plane_depth_m(const CameraModel& cam, const Eigen::Matrix3d& R_WC, double height_m) {
+  return least_plane_depth_m(image_border_rays(cam), R_WC, height_m);
 }
 
 }  // namespace lander

@@ -13,6 +13,7 @@
 
 #include <limits>
 #include <optional>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -110,7 +111,8 @@ class FlightStack final : public FlightSoftware {
   // frame (m), from the flight software's own state: the camera's fused height above W less
   // the plane's prior height (estimator.altitude.platform_height_m), less kDepthSigmas of both
   // heights' std and kDepthMargin_m (a heaving deck, the cart's bounce), seen through the
-  // calibrated mount and the image's corners (over a plane, the least depth is at a corner).
+  // calibrated mount and the image's border (least_plane_depth_m: over a plane, the least
+  // depth is on the border).
   // 0 (unknown) while the altitude fusion has not started, when the plane is not below the
   // camera or not in view, or when estimator.vision.predict_min_depth is off.
   double min_target_depth_m() const;
@@ -151,6 +153,7 @@ class FlightStack final : public FlightSoftware {
   RingTargetDetector detector_;
   std::unique_ptr<VisionDetector> user_detector_;  // flown instead of detector_ when set
   PathExtractor path_extractor_;
+  std::vector<Eigen::Vector3d> border_rays_;  // the calibration's image border (min_target_depth_m)
   StateEstimator est_;
   ctl::LandingController controller_;
 };
